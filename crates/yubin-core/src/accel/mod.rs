@@ -1,0 +1,8 @@
+//! Ray acceleration. The rest of the renderer sees only [`Bvh`]'s three
+//! operations — build over primitive bounds, closest hit, any hit — with
+//! the primitive test supplied by the caller as a closure, so the
+//! structure can be replaced without touching shapes or integrators.
+
+mod bvh;
+
+pub use bvh::Bvh;

@@ -1,0 +1,117 @@
+//! `diffuse`: the ideal Lambertian reflector, f = ρ/π.
+//!
+//! | parameter     | type           | default | meaning            |
+//! |---------------|----------------|---------|--------------------|
+//! | `reflectance` | rgb / spectrum | 0.5     | albedo ρ           |
+//!
+//! ```xml
+//! <bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.25, 0.7"/></bsdf>
+//! ```
+//!
+//! One-sided (black from below; wrap it in `twosided` for both sides).
+//! Samples the cosine-weighted hemisphere, so the sample weight is ρ.
+//! pbrt-v4 §9.2.
+
+use super::{Bsdf, BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use crate::interaction::SurfaceInteraction;
+use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::Rgb;
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+
+/// Lambertian reflection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Diffuse {
+    /// Albedo.
+    pub reflectance: Rgb,
+}
+
+impl Default for Diffuse {
+    fn default() -> Self {
+        Self {
+            reflectance: Rgb::splat(0.5),
+        }
+    }
+}
+
+impl BsdfModel for Diffuse {
+    fn flags(&self, _: &[Bsdf]) -> BsdfFlags {
+        BsdfFlags::DIFFUSE_REFLECTION | BsdfFlags::FRONT_SIDE
+    }
+
+    #[inline]
+    fn sample(
+        &self,
+        _: &[Bsdf],
+        _: &BsdfContext,
+        _: &SurfaceInteraction,
+        wo: Vec3,
+        _: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let wi = square_to_cosine_hemisphere(u2);
+        let pdf = cosine_hemisphere_pdf(wi);
+        (pdf > 0.0).then_some(BsdfSample {
+            wi,
+            pdf,
+            eta: 1.0,
+            sampled: BsdfFlags::DIFFUSE_REFLECTION,
+            weight: self.reflectance,
+        })
+    }
+
+    #[inline]
+    fn eval(&self, _: &[Bsdf], _: &BsdfContext, _: &SurfaceInteraction, wo: Vec3, wi: Vec3) -> Rgb {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        self.reflectance * (FRAC_1_PI * wi.z)
+    }
+
+    #[inline]
+    fn pdf(&self, _: &[Bsdf], _: &BsdfContext, _: &SurfaceInteraction, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        cosine_hemisphere_pdf(wi)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity};
+
+    #[test]
+    fn chi2_diffuse() {
+        let table = [Bsdf::Diffuse(Diffuse {
+            reflectance: Rgb::new(0.2, 0.5, 0.9),
+        })];
+        check_bsdf(&table, 0, Vec3::new(0.3, 0.2, 0.9).normalize());
+        check_bsdf(&table, 0, Vec3::new(-0.9, 0.1, 0.05).normalize());
+    }
+
+    #[test]
+    fn diffuse_energy_and_reciprocity() {
+        let table = [Bsdf::Diffuse(Diffuse {
+            reflectance: Rgb::ONE,
+        })];
+        let a = albedo(&table, 0, Vec3::new(0.1, 0.2, 0.8).normalize());
+        assert!(
+            (a - Rgb::ONE).abs().max_element() < 1e-6,
+            "white diffuse reflects everything: {a}"
+        );
+        check_reciprocity(&table, 0);
+        let b = table[0];
+        let si = crate::bsdf::tests::flat_si();
+        let ctx = BsdfContext::default();
+        assert_eq!(
+            b.eval(&table, &ctx, &si, -Vec3::Z, Vec3::Z),
+            Rgb::ZERO,
+            "one-sided"
+        );
+    }
+}

@@ -1,0 +1,285 @@
+//! BSDFs: the contract every material model implements, and the closed
+//! enum the scene stores.
+//!
+//! Conventions (shared with Mitsuba 3 and pbrt-v4):
+//! - Directions are in the local shading frame, +z the shading normal,
+//!   and both point away from the surface: `wo` towards the viewer (where
+//!   the path came from), `wi` towards the light (where it goes next).
+//! - [`BsdfModel::eval`] returns f(wo, wi) · |cos θi| — the cosine
+//!   foreshortening is included, as in Mitsuba 3.
+//! - [`BsdfModel::sample`] returns the *weight* eval/pdf, so delta lobes
+//!   (pdf formally infinite) are handled without special cases.
+//! - [`TransportMode`] says whether radiance (camera paths) or importance
+//!   (light paths) is carried; non-symmetric BSDFs (refraction, shading
+//!   normals) differ between the two.
+//! - One-sided models are black when `wo` or `wi` is below the surface;
+//!   `twosided` makes them work on both sides.
+//!
+//! Composite BSDFs (`twosided`, later `mix`, `mask`, `bump`) refer to
+//! their children by index in the scene's BSDF table, so each method takes
+//! that table.
+
+mod diffuse;
+mod twosided;
+
+pub use diffuse::Diffuse;
+pub use twosided::TwoSided;
+
+use crate::interaction::SurfaceInteraction;
+use crate::Rgb;
+use glam::{Vec2, Vec3};
+
+/// Which quantity a path carries.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TransportMode {
+    /// Paths from the camera carry radiance.
+    #[default]
+    Radiance,
+    /// Paths from lights carry importance.
+    Importance,
+}
+
+/// Per-query settings of a BSDF evaluation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BsdfContext {
+    /// Radiance or importance.
+    pub mode: TransportMode,
+}
+
+/// Lobe flags: what kinds of scattering a BSDF (or one sample) has.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct BsdfFlags(pub u32);
+
+impl BsdfFlags {
+    /// No scattering.
+    pub const NONE: Self = Self(0);
+    /// Index-matched pass-through (the path continues unchanged).
+    pub const NULL: Self = Self(1);
+    /// Ideal diffuse reflection.
+    pub const DIFFUSE_REFLECTION: Self = Self(1 << 1);
+    /// Ideal diffuse transmission.
+    pub const DIFFUSE_TRANSMISSION: Self = Self(1 << 2);
+    /// Glossy reflection.
+    pub const GLOSSY_REFLECTION: Self = Self(1 << 3);
+    /// Glossy transmission.
+    pub const GLOSSY_TRANSMISSION: Self = Self(1 << 4);
+    /// Perfectly specular reflection.
+    pub const DELTA_REFLECTION: Self = Self(1 << 5);
+    /// Perfectly specular transmission.
+    pub const DELTA_TRANSMISSION: Self = Self(1 << 6);
+    /// Scatters on the front side.
+    pub const FRONT_SIDE: Self = Self(1 << 7);
+    /// Scatters on the back side.
+    pub const BACK_SIDE: Self = Self(1 << 8);
+    /// Any delta lobe.
+    pub const DELTA: Self =
+        Self(Self::NULL.0 | Self::DELTA_REFLECTION.0 | Self::DELTA_TRANSMISSION.0);
+    /// Any lobe that has a finite density (can be light-sampled).
+    pub const SMOOTH: Self = Self(
+        Self::DIFFUSE_REFLECTION.0
+            | Self::DIFFUSE_TRANSMISSION.0
+            | Self::GLOSSY_REFLECTION.0
+            | Self::GLOSSY_TRANSMISSION.0,
+    );
+
+    /// True when any flag of `other` is set.
+    #[inline]
+    pub fn intersects(self, other: Self) -> bool {
+        self.0 & other.0 != 0
+    }
+}
+
+impl std::ops::BitOr for BsdfFlags {
+    type Output = Self;
+    fn bitor(self, o: Self) -> Self {
+        Self(self.0 | o.0)
+    }
+}
+
+/// A sampled direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    /// Sampled direction (local frame).
+    pub wi: Vec3,
+    /// Its density per solid angle (1 for delta lobes, by convention).
+    pub pdf: f32,
+    /// Relative index of refraction along the sampled direction (1 for
+    /// reflection).
+    pub eta: f32,
+    /// The lobe that was sampled.
+    pub sampled: BsdfFlags,
+    /// eval / pdf.
+    pub weight: Rgb,
+}
+
+/// The contract of every BSDF.
+pub trait BsdfModel {
+    /// Lobes this BSDF has.
+    fn flags(&self, table: &[Bsdf]) -> BsdfFlags;
+    /// Samples `wi` given `wo`; `u1` picks a lobe, `u2` the direction.
+    fn sample(
+        &self,
+        table: &[Bsdf],
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample>;
+    /// f · |cos θi| for the smooth lobes (delta lobes give 0).
+    fn eval(
+        &self,
+        table: &[Bsdf],
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> Rgb;
+    /// Density with which [`BsdfModel::sample`] picks `wi` (smooth lobes).
+    fn pdf(
+        &self,
+        table: &[Bsdf],
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> f32;
+}
+
+/// A BSDF (closed enum; see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bsdf {
+    /// `diffuse`.
+    Diffuse(Diffuse),
+    /// `twosided`.
+    TwoSided(TwoSided),
+}
+
+macro_rules! dispatch {
+    ($self:expr, $b:ident => $e:expr) => {
+        match $self {
+            Bsdf::Diffuse($b) => $e,
+            Bsdf::TwoSided($b) => $e,
+        }
+    };
+}
+
+impl BsdfModel for Bsdf {
+    #[inline]
+    fn flags(&self, table: &[Bsdf]) -> BsdfFlags {
+        dispatch!(self, b => b.flags(table))
+    }
+    #[inline]
+    fn sample(
+        &self,
+        table: &[Bsdf],
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
+        dispatch!(self, b => b.sample(table, ctx, si, wo, u1, u2))
+    }
+    #[inline]
+    fn eval(
+        &self,
+        table: &[Bsdf],
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> Rgb {
+        dispatch!(self, b => b.eval(table, ctx, si, wo, wi))
+    }
+    #[inline]
+    fn pdf(
+        &self,
+        table: &[Bsdf],
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> f32 {
+        dispatch!(self, b => b.pdf(table, ctx, si, wo, wi))
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::math::Frame;
+    use crate::sampler::Pcg32;
+    use crate::testing::chi2::{chi2_directions, Chi2Config};
+
+    /// A surface interaction at the origin facing +z.
+    pub(crate) fn flat_si() -> SurfaceInteraction {
+        SurfaceInteraction {
+            p: Vec3::ZERO,
+            t: 1.0,
+            n: Vec3::Z,
+            sh_frame: Frame::from_normal(Vec3::Z),
+            uv: Vec2::splat(0.5),
+            dpdu: Vec3::X,
+            dpdv: Vec3::Y,
+            wo: Vec3::Z,
+            shape: 0,
+            prim: 0,
+        }
+    }
+
+    /// Chi-square test of `table[id]`'s sampling against its pdf for
+    /// `wo`, plus consistency of sample weights with eval/pdf.
+    pub(crate) fn check_bsdf(table: &[Bsdf], id: usize, wo: Vec3) {
+        let (b, si, ctx) = (table[id], flat_si(), BsdfContext::default());
+        chi2_directions(
+            &Chi2Config::default(),
+            |r: &mut Pcg32| {
+                let u1 = r.next_f32();
+                let s = b.sample(table, &ctx, &si, wo, u1, r.next_2d())?;
+                let expected = b.eval(table, &ctx, &si, wo, s.wi) / s.pdf;
+                assert!(
+                    (expected - s.weight).abs().max_element()
+                        < 1e-3 * expected.max_element().max(1.0),
+                    "weight {} vs eval/pdf {}",
+                    s.weight,
+                    expected
+                );
+                Some((s.wi, s.pdf))
+            },
+            |wi| b.pdf(table, &ctx, &si, wo, wi),
+        )
+        .unwrap();
+    }
+
+    /// Helmholtz reciprocity f(wo, wi)/|cos wi| = f(wi, wo)/|cos wo|.
+    pub(crate) fn check_reciprocity(table: &[Bsdf], id: usize) {
+        let (b, si, ctx) = (table[id], flat_si(), BsdfContext::default());
+        let mut rng = Pcg32::new(5, 5);
+        for _ in 0..1000 {
+            let wo = crate::sampling::square_to_uniform_sphere(rng.next_2d());
+            let wi = crate::sampling::square_to_uniform_sphere(rng.next_2d());
+            let f1 = b.eval(table, &ctx, &si, wo, wi) / wi.z.abs();
+            let f2 = b.eval(table, &ctx, &si, wi, wo) / wo.z.abs();
+            assert!(
+                (f1 - f2).abs().max_element() < 1e-3 * f1.max_element().max(1.0),
+                "{f1} vs {f2}"
+            );
+        }
+    }
+
+    /// Albedo (∫ f cos dωi) estimated by sampling, for energy checks.
+    pub(crate) fn albedo(table: &[Bsdf], id: usize, wo: Vec3) -> Rgb {
+        let (b, si, ctx) = (table[id], flat_si(), BsdfContext::default());
+        let mut rng = Pcg32::new(9, 9);
+        let n = 100_000;
+        let sum: glam::DVec3 = (0..n)
+            .filter_map(|_| {
+                let u1 = rng.next_f32();
+                b.sample(table, &ctx, &si, wo, u1, rng.next_2d())
+            })
+            .map(|s| s.weight.as_dvec3())
+            .sum();
+        (sum / n as f64).as_vec3()
+    }
+}

@@ -1,0 +1,145 @@
+//! `twosided`: makes a one-sided BSDF scatter on both sides.
+//!
+//! | child  | type | meaning                                               |
+//! |--------|------|-------------------------------------------------------|
+//! | first  | bsdf | used on the front side                                |
+//! | second | bsdf | used on the back side (optional; defaults to the first)|
+//!
+//! ```xml
+//! <bsdf type="twosided"><bsdf type="diffuse"/></bsdf>
+//! ```
+//!
+//! When `wo` is below the surface, both directions are mirrored through
+//! the tangent plane and the back BSDF is used.
+
+use super::{Bsdf, BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use crate::interaction::SurfaceInteraction;
+use crate::Rgb;
+use glam::{Vec2, Vec3};
+
+/// Front and back BSDFs, by index in the scene's BSDF table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TwoSided {
+    /// Front-side BSDF.
+    pub front: u32,
+    /// Back-side BSDF.
+    pub back: u32,
+}
+
+#[inline]
+fn mirror(w: Vec3) -> Vec3 {
+    Vec3::new(w.x, w.y, -w.z)
+}
+
+impl TwoSided {
+    fn side(&self, wo: Vec3) -> (u32, bool) {
+        if wo.z >= 0.0 {
+            (self.front, false)
+        } else {
+            (self.back, true)
+        }
+    }
+}
+
+impl BsdfModel for TwoSided {
+    fn flags(&self, table: &[Bsdf]) -> BsdfFlags {
+        let f = table[self.front as usize].flags(table) | table[self.back as usize].flags(table);
+        f | BsdfFlags::FRONT_SIDE | BsdfFlags::BACK_SIDE
+    }
+
+    #[inline]
+    fn sample(
+        &self,
+        table: &[Bsdf],
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
+        let (id, back) = self.side(wo);
+        let b = &table[id as usize];
+        if back {
+            b.sample(table, ctx, si, mirror(wo), u1, u2)
+                .map(|s| BsdfSample {
+                    wi: mirror(s.wi),
+                    ..s
+                })
+        } else {
+            b.sample(table, ctx, si, wo, u1, u2)
+        }
+    }
+
+    #[inline]
+    fn eval(
+        &self,
+        table: &[Bsdf],
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> Rgb {
+        let (id, back) = self.side(wo);
+        let b = &table[id as usize];
+        if back {
+            b.eval(table, ctx, si, mirror(wo), mirror(wi))
+        } else {
+            b.eval(table, ctx, si, wo, wi)
+        }
+    }
+
+    #[inline]
+    fn pdf(
+        &self,
+        table: &[Bsdf],
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> f32 {
+        let (id, back) = self.side(wo);
+        let b = &table[id as usize];
+        if back {
+            b.pdf(table, ctx, si, mirror(wo), mirror(wi))
+        } else {
+            b.pdf(table, ctx, si, wo, wi)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity};
+    use crate::bsdf::Diffuse;
+
+    fn table() -> Vec<Bsdf> {
+        vec![
+            Bsdf::Diffuse(Diffuse {
+                reflectance: Rgb::new(0.8, 0.4, 0.2),
+            }),
+            Bsdf::Diffuse(Diffuse {
+                reflectance: Rgb::new(0.1, 0.9, 0.3),
+            }),
+            Bsdf::TwoSided(TwoSided { front: 0, back: 1 }),
+        ]
+    }
+
+    #[test]
+    fn chi2_twosided_both_sides() {
+        let t = table();
+        check_bsdf(&t, 2, Vec3::new(0.2, 0.1, 0.9).normalize());
+        check_bsdf(&t, 2, Vec3::new(0.2, 0.1, -0.9).normalize());
+        check_reciprocity(&t, 2);
+    }
+
+    #[test]
+    fn back_side_uses_back_bsdf() {
+        let t = table();
+        let a = albedo(&t, 2, Vec3::new(0.0, 0.3, -0.8).normalize());
+        assert!(
+            (a - Rgb::new(0.1, 0.9, 0.3)).abs().max_element() < 1e-5,
+            "{a}"
+        );
+    }
+}

@@ -1,0 +1,148 @@
+//! Integrators. The choice of integrator is made once per render, so it is
+//! a trait object ([`Integrator`]); everything it calls per ray is enum
+//! dispatch.
+//!
+//! An integrator turns one camera ray into `channel_count()` values: RGB
+//! radiance first, then any extra channels it defines (`moment` adds the
+//! second moment).
+
+mod direct;
+mod moment;
+mod path;
+
+pub use direct::DirectIntegrator;
+pub use moment::MomentIntegrator;
+pub use path::PathIntegrator;
+
+use crate::interaction::SurfaceInteraction;
+use crate::math::Ray;
+use crate::sampler::SampleStream;
+use crate::sampling::power_heuristic;
+use crate::{Rgb, Scene};
+use glam::Vec3;
+
+/// A light-transport algorithm.
+pub trait Integrator: Send + Sync + std::fmt::Debug {
+    /// Names of the channel groups after RGB (e.g. `["m2"]`), each three
+    /// channels wide.
+    fn extra_layers(&self) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// Values per sample: 3 per layer, RGB first.
+    fn channel_count(&self) -> usize {
+        3 * (1 + self.extra_layers().len())
+    }
+
+    /// Radiance arriving along `ray`.
+    fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb;
+
+    /// Fills `out` (`channel_count()` values) for one camera ray.
+    fn sample(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream, out: &mut [f32]) {
+        let l = self.li(scene, ray, sampler);
+        out[..3].copy_from_slice(&l.to_array());
+    }
+}
+
+/// Radiance from emitters at infinity along an escaped ray `d`, MIS-weighted
+/// against the BSDF sample that produced it (`bsdf_pdf`, or `None` when
+/// the ray was not BSDF-sampled with a finite density).
+pub(crate) fn environment_radiance(
+    scene: &Scene,
+    origin: Vec3,
+    d: Vec3,
+    bsdf_pdf: Option<f32>,
+) -> Rgb {
+    let ctx = scene.emitter_context();
+    scene
+        .environment_emitters
+        .iter()
+        .map(|&e| {
+            let emitter = &scene.emitters[e as usize];
+            let le = emitter.environment_radiance(d);
+            match bsdf_pdf {
+                None => le,
+                Some(pdf) => {
+                    use crate::light::EmitterModel;
+                    let light_pdf = scene.emitter_pick_pdf()
+                        * emitter.pdf_direction(&ctx, origin, origin + d, -d, d);
+                    le * power_heuristic(pdf, light_pdf)
+                }
+            }
+        })
+        .sum()
+}
+
+/// Radiance emitted by the surface at `si` towards the ray's origin,
+/// MIS-weighted as in [`environment_radiance`].
+pub(crate) fn surface_emission(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    origin: Vec3,
+    bsdf_pdf: Option<f32>,
+) -> Rgb {
+    use crate::light::EmitterModel;
+    let Some(emitter) = scene.emitter_of(si.shape) else {
+        return Rgb::ZERO;
+    };
+    let le = emitter.surface_radiance(si.sh_frame.n, si.wo);
+    match bsdf_pdf {
+        Some(pdf) if le != Rgb::ZERO => {
+            let light_pdf = scene.emitter_pick_pdf()
+                * emitter.pdf_direction(
+                    &scene.emitter_context(),
+                    origin,
+                    si.p,
+                    si.sh_frame.n,
+                    -si.wo,
+                );
+            le * power_heuristic(pdf, light_pdf)
+        }
+        _ => le,
+    }
+}
+
+/// One light sample at `si` with MIS against the BSDF: the contribution
+/// f · Li · w / pdf (before path throughput), with `bsdf_weight` scaling
+/// the BSDF density in the heuristic (sample-count ratios).
+pub(crate) fn sample_light(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    bsdf: &crate::bsdf::Bsdf,
+    wo_local: Vec3,
+    sampler: &mut SampleStream,
+    light_count_ratio: f32,
+) -> Rgb {
+    use crate::bsdf::{BsdfContext, BsdfModel};
+    use crate::light::EmitterModel;
+    let u_pick = sampler.next_1d();
+    let u = sampler.next_2d();
+    let Some((emitter, pick_pdf)) = scene.pick_emitter(u_pick) else {
+        return Rgb::ZERO;
+    };
+    let Some(ls) = emitter.sample_direction(&scene.emitter_context(), si.p, u) else {
+        return Rgb::ZERO;
+    };
+    let ctx = BsdfContext::default();
+    let wi_local = si.to_local(ls.wi);
+    let f = bsdf.eval(&scene.bsdfs, &ctx, si, wo_local, wi_local);
+    if f == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let shadow = if ls.dist.is_finite() {
+        si.spawn_ray_to(si.p + ls.wi * ls.dist)
+    } else {
+        si.spawn_ray(ls.wi)
+    };
+    if scene.occluded(&shadow) {
+        return Rgb::ZERO;
+    }
+    let light_pdf = ls.pdf * pick_pdf;
+    let w = if ls.is_delta {
+        1.0
+    } else {
+        let bsdf_pdf = bsdf.pdf(&scene.bsdfs, &ctx, si, wo_local, wi_local);
+        power_heuristic(light_pdf * light_count_ratio, bsdf_pdf)
+    };
+    f * ls.radiance * (w / light_pdf)
+}

@@ -1,0 +1,46 @@
+//! `moment`: renders its nested integrator and also the second moment of
+//! the samples, so mean and variance can be estimated together. This is
+//! the wrapper Mitsuba 3's render-regression suite uses.
+//!
+//! | child      | type       | meaning                 |
+//! |------------|------------|-------------------------|
+//! | (nested)   | integrator | the integrator to run   |
+//!
+//! ```xml
+//! <integrator type="moment"><integrator type="path"/></integrator>
+//! ```
+//!
+//! Output: RGB of the nested integrator, then a layer `m2` holding the
+//! (filter-weighted) mean of the squared samples; variance = m2 − mean².
+
+use super::Integrator;
+use crate::math::Ray;
+use crate::sampler::SampleStream;
+use crate::{Rgb, Scene};
+
+/// Mean and second moment of a nested integrator.
+#[derive(Debug)]
+pub struct MomentIntegrator {
+    /// The integrator whose samples are measured.
+    pub nested: Box<dyn Integrator>,
+}
+
+impl Integrator for MomentIntegrator {
+    fn extra_layers(&self) -> Vec<String> {
+        let mut layers = self.nested.extra_layers();
+        layers.push("m2".into());
+        layers
+    }
+
+    fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
+        self.nested.li(scene, ray, sampler)
+    }
+
+    fn sample(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream, out: &mut [f32]) {
+        let n = self.nested.channel_count();
+        self.nested.sample(scene, ray, sampler, &mut out[..n]);
+        for c in 0..3 {
+            out[n + c] = out[c] * out[c];
+        }
+    }
+}

@@ -1,0 +1,97 @@
+//! `path`: unidirectional path tracing with next-event estimation at every
+//! bounce, multiple importance sampling (power heuristic) between light
+//! and BSDF sampling, and Russian roulette (Veach 1997, ch. 9;
+//! pbrt-v4 §13.4).
+//!
+//! | parameter       | type    | default | meaning                                                        |
+//! |-----------------|---------|---------|----------------------------------------------------------------|
+//! | `max_depth`     | integer | -1      | longest path in segments (−1: unlimited); 1 = visible emitters only, 2 = direct light |
+//! | `rr_depth`      | integer | 5       | Russian roulette starts once a path has this many segments     |
+//! | `hide_emitters` | boolean | false   | emitters seen directly by the camera render black              |
+//!
+//! ```xml
+//! <integrator type="path"><integer name="max_depth" value="8"/></integrator>
+//! ```
+//!
+//! The roulette survival probability is min(max(β)·η², 0.95), with β the
+//! throughput and η the accumulated relative index of refraction.
+
+use super::{environment_radiance, sample_light, surface_emission, Integrator};
+use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel};
+use crate::math::Ray;
+use crate::sampler::SampleStream;
+use crate::{Rgb, Scene};
+
+/// Path tracer settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PathIntegrator {
+    /// Longest path in segments; negative means unlimited.
+    pub max_depth: i32,
+    /// Path length at which Russian roulette starts.
+    pub rr_depth: u32,
+    /// Hide directly visible emitters.
+    pub hide_emitters: bool,
+}
+
+impl Default for PathIntegrator {
+    fn default() -> Self {
+        Self {
+            max_depth: -1,
+            rr_depth: 5,
+            hide_emitters: false,
+        }
+    }
+}
+
+impl Integrator for PathIntegrator {
+    fn li(&self, scene: &Scene, camera_ray: &Ray, sampler: &mut SampleStream) -> Rgb {
+        let ctx = BsdfContext::default();
+        let (mut l, mut beta, mut eta2) = (Rgb::ZERO, Rgb::ONE, 1.0f32);
+        let mut ray = *camera_ray;
+        // Density of the BSDF sample that produced `ray`; None for camera
+        // rays and delta lobes (no MIS: the light could not sample them).
+        let mut prev_pdf: Option<f32> = None;
+        // Number of segments traced so far minus one (0 at the first hit).
+        let mut depth: u32 = 0;
+        loop {
+            let Some(si) = scene.intersect(&ray) else {
+                if !(depth == 0 && self.hide_emitters) {
+                    l += beta * environment_radiance(scene, ray.o, ray.d.normalize(), prev_pdf);
+                }
+                break;
+            };
+            if !(depth == 0 && self.hide_emitters) {
+                l += beta * surface_emission(scene, &si, ray.o, prev_pdf);
+            }
+            if self.max_depth >= 0 && depth + 1 >= self.max_depth as u32 {
+                break;
+            }
+            let bsdf = scene.bsdf_of(si.shape);
+            let wo = si.to_local(si.wo);
+            if bsdf.flags(&scene.bsdfs).intersects(BsdfFlags::SMOOTH) {
+                l += beta * sample_light(scene, &si, bsdf, wo, sampler, 1.0);
+            }
+            let u1 = sampler.next_1d();
+            let u2 = sampler.next_2d();
+            let Some(bs) = bsdf.sample(&scene.bsdfs, &ctx, &si, wo, u1, u2) else {
+                break;
+            };
+            beta *= bs.weight;
+            eta2 *= bs.eta * bs.eta;
+            prev_pdf = (!bs.sampled.intersects(BsdfFlags::DELTA)).then_some(bs.pdf);
+            ray = si.spawn_ray(si.to_world(bs.wi));
+            depth += 1;
+            if depth >= self.rr_depth {
+                let q = (beta.max_element() * eta2).min(0.95);
+                if !(sampler.next_1d() < q) {
+                    break;
+                }
+                beta /= q;
+            }
+            if beta.max_element() <= 0.0 {
+                break;
+            }
+        }
+        l
+    }
+}

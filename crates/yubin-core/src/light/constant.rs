@@ -1,0 +1,68 @@
+//! `constant`: uniform radiance arriving from every direction (an
+//! environment at infinity).
+//!
+//! | parameter  | type           | default | meaning   |
+//! |------------|----------------|---------|-----------|
+//! | `radiance` | rgb / spectrum | 1       | radiance L|
+//!
+//! ```xml
+//! <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+//! ```
+//!
+//! Sampled uniformly over the sphere of directions (density 1/4π).
+
+use super::{EmitterContext, EmitterModel, EmitterSample};
+use crate::sampling::{square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
+use crate::Rgb;
+use glam::{Vec2, Vec3};
+
+/// A constant environment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConstantLight {
+    /// Radiance.
+    pub radiance: Rgb,
+}
+
+impl EmitterModel for ConstantLight {
+    fn sample_direction(&self, _: &EmitterContext, _: Vec3, u: Vec2) -> Option<EmitterSample> {
+        Some(EmitterSample {
+            wi: square_to_uniform_sphere(u),
+            dist: f32::INFINITY,
+            pdf: UNIFORM_SPHERE_PDF,
+            radiance: self.radiance,
+            is_delta: false,
+        })
+    }
+
+    fn pdf_direction(&self, _: &EmitterContext, _: Vec3, _: Vec3, _: Vec3, _: Vec3) -> f32 {
+        UNIFORM_SPHERE_PDF
+    }
+
+    fn is_delta(&self) -> bool {
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::chi2::{chi2_directions, Chi2Config};
+
+    #[test]
+    fn chi2_constant_light() {
+        let l = ConstantLight { radiance: Rgb::ONE };
+        let ctx = EmitterContext {
+            shapes: &[],
+            meshes: &[],
+        };
+        chi2_directions(
+            &Chi2Config::default(),
+            |r| {
+                l.sample_direction(&ctx, Vec3::ZERO, r.next_2d())
+                    .map(|s| (s.wi, s.pdf))
+            },
+            |wi| l.pdf_direction(&ctx, Vec3::ZERO, Vec3::ZERO, Vec3::Z, wi),
+        )
+        .unwrap();
+    }
+}

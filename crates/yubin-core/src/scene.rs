@@ -1,0 +1,500 @@
+//! The scene: geometry in a two-level hierarchy, materials, emitters,
+//! camera, film and sampler; and [`SceneBuilder`], the API for building
+//! one in code (the scene-file front ends use it too).
+//!
+//! Geometry is a list of groups, each with its own BVH over *items*; an
+//! item is a primitive of a shape or an instance of another group. Group
+//! 0 is the world; `shapegroup`s are further groups, referenced by
+//! instances (a transform and a group), so instanced geometry is stored
+//! once. Instances nest one level, as in Mitsuba.
+
+use crate::accel::Bvh;
+use crate::bsdf::{Bsdf, Diffuse};
+use crate::camera::{Camera, FovAxis, Perspective};
+use crate::film::Film;
+use crate::filter::Filter;
+use crate::interaction::SurfaceInteraction;
+use crate::light::{AreaLight, Emitter, EmitterContext};
+use crate::math::{Bounds3, Frame, Ray, Transform};
+use crate::sampler::{Independent, Sampler};
+use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh};
+use crate::Rgb;
+
+/// What a shape is made of and whether it emits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShapeInfo {
+    /// Index into [`Scene::bsdfs`].
+    pub bsdf: u32,
+    /// Index into [`Scene::emitters`] when the shape is an area light.
+    pub emitter: Option<u32>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Item {
+    Prim { shape: u32, prim: u32 },
+    Instance(u32),
+}
+
+#[derive(Clone, Debug, Default)]
+struct Group {
+    items: Vec<Item>,
+    bvh: Bvh,
+}
+
+/// One placement of a shape group.
+#[derive(Clone, Copy, Debug)]
+struct Instance {
+    group: u32,
+    to_world: Transform,
+}
+
+/// A closest hit before its interaction is computed.
+#[derive(Clone, Copy, Debug)]
+struct HitRecord {
+    shape: u32,
+    prim: u32,
+    hit: PrimHit,
+    instance: Option<u32>,
+}
+
+/// A scene ready to render.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Triangle data.
+    pub meshes: Vec<TriangleMesh>,
+    /// All shapes, including those only reachable through instances.
+    pub shapes: Vec<Shape>,
+    /// Material and emission of each shape.
+    pub shape_info: Vec<ShapeInfo>,
+    /// BSDF table.
+    pub bsdfs: Vec<Bsdf>,
+    /// Emitters.
+    pub emitters: Vec<Emitter>,
+    /// Indices of emitters at infinity (hit by escaping rays).
+    pub environment_emitters: Vec<u32>,
+    /// The camera.
+    pub camera: Camera,
+    /// The film.
+    pub film: Film,
+    /// The sampler.
+    pub sampler: Sampler,
+    groups: Vec<Group>,
+    instances: Vec<Instance>,
+}
+
+impl Scene {
+    /// World-space bounds of all geometry.
+    pub fn bounds(&self) -> Bounds3 {
+        self.groups
+            .first()
+            .map_or(Bounds3::EMPTY, |g| g.bvh.bounds())
+    }
+
+    /// What emitters need to see of the scene.
+    #[inline]
+    pub fn emitter_context(&self) -> EmitterContext<'_> {
+        EmitterContext {
+            shapes: &self.shapes,
+            meshes: &self.meshes,
+        }
+    }
+
+    /// Closest hit along `ray` within its interval.
+    pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
+        let mut r = *ray;
+        let mut rec: Option<HitRecord> = None;
+        self.groups[0]
+            .bvh
+            .closest(&mut r, |i, r| match self.groups[0].items[i as usize] {
+                Item::Prim { shape, prim } => {
+                    let hit = self.shapes[shape as usize].intersect(&self.meshes, prim, r)?;
+                    rec = Some(HitRecord {
+                        shape,
+                        prim,
+                        hit,
+                        instance: None,
+                    });
+                    Some(hit.t)
+                }
+                Item::Instance(inst) => {
+                    let instance = &self.instances[inst as usize];
+                    let mut local = to_local_ray(r, &instance.to_world);
+                    let (shape, prim, hit) = self.closest_in_group(instance.group, &mut local)?;
+                    rec = Some(HitRecord {
+                        shape,
+                        prim,
+                        hit,
+                        instance: Some(inst),
+                    });
+                    Some(hit.t)
+                }
+            });
+        rec.map(|h| self.interaction(ray, &r, h))
+    }
+
+    fn closest_in_group(&self, group: u32, ray: &mut Ray) -> Option<(u32, u32, PrimHit)> {
+        let g = &self.groups[group as usize];
+        let mut found = None;
+        g.bvh.closest(ray, |i, r| match g.items[i as usize] {
+            Item::Prim { shape, prim } => {
+                let hit = self.shapes[shape as usize].intersect(&self.meshes, prim, r)?;
+                found = Some((shape, prim, hit));
+                Some(hit.t)
+            }
+            Item::Instance(_) => None,
+        });
+        found
+    }
+
+    fn interaction(&self, ray: &Ray, closest: &Ray, h: HitRecord) -> SurfaceInteraction {
+        let shape = &self.shapes[h.shape as usize];
+        let mut si = match h.instance {
+            None => shape.interaction(&self.meshes, h.prim, closest, h.hit),
+            Some(inst) => {
+                let t = &self.instances[inst as usize].to_world;
+                let local_ray = to_local_ray(closest, t);
+                let local = shape.interaction(&self.meshes, h.prim, &local_ray, h.hit);
+                instance_to_world(&local, t)
+            }
+        };
+        si.wo = -ray.d.normalize();
+        si.shape = h.shape;
+        si.prim = h.prim;
+        si
+    }
+
+    /// True when anything blocks `ray` within its interval.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        let g0 = &self.groups[0];
+        g0.bvh.any(ray, |i, r| match g0.items[i as usize] {
+            Item::Prim { shape, prim } => self.shapes[shape as usize]
+                .intersect(&self.meshes, prim, r)
+                .is_some(),
+            Item::Instance(inst) => {
+                let instance = &self.instances[inst as usize];
+                let local = to_local_ray(r, &instance.to_world);
+                let g = &self.groups[instance.group as usize];
+                g.bvh.any(&local, |j, lr| match g.items[j as usize] {
+                    Item::Prim { shape, prim } => self.shapes[shape as usize]
+                        .intersect(&self.meshes, prim, lr)
+                        .is_some(),
+                    Item::Instance(_) => false,
+                })
+            }
+        })
+    }
+
+    /// The BSDF of a shape.
+    #[inline]
+    pub fn bsdf_of(&self, shape: u32) -> &Bsdf {
+        &self.bsdfs[self.shape_info[shape as usize].bsdf as usize]
+    }
+
+    /// The emitter of a shape, if it is an area light.
+    #[inline]
+    pub fn emitter_of(&self, shape: u32) -> Option<&Emitter> {
+        self.shape_info[shape as usize]
+            .emitter
+            .map(|e| &self.emitters[e as usize])
+    }
+
+    /// Picks an emitter uniformly; returns it and its selection probability.
+    #[inline]
+    pub fn pick_emitter(&self, u: f32) -> Option<(&Emitter, f32)> {
+        let n = self.emitters.len();
+        if n == 0 {
+            return None;
+        }
+        let i = ((u * n as f32) as usize).min(n - 1);
+        Some((&self.emitters[i], 1.0 / n as f32))
+    }
+
+    /// Probability that [`Scene::pick_emitter`] picks any given emitter.
+    #[inline]
+    pub fn emitter_pick_pdf(&self) -> f32 {
+        if self.emitters.is_empty() {
+            0.0
+        } else {
+            1.0 / self.emitters.len() as f32
+        }
+    }
+}
+
+/// The ray in an instance's object space; the direction is not
+/// normalized, so distances along it equal world distances.
+#[inline]
+fn to_local_ray(r: &Ray, t: &Transform) -> Ray {
+    Ray {
+        o: t.inv.transform_point3(r.o),
+        d: t.inv.transform_vector3(r.d),
+        t_min: r.t_min,
+        t_max: r.t_max,
+    }
+}
+
+fn instance_to_world(local: &SurfaceInteraction, t: &Transform) -> SurfaceInteraction {
+    let n = t.normal(local.n).normalize();
+    let ns = t.normal(local.sh_frame.n).normalize();
+    let dpdu = t.vector(local.dpdu);
+    SurfaceInteraction {
+        p: t.point(local.p),
+        n,
+        sh_frame: Frame::from_normal_and_tangent(ns, dpdu),
+        dpdu,
+        dpdv: t.vector(local.dpdv),
+        ..*local
+    }
+}
+
+/// Errors from [`SceneBuilder::build`] and its methods.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum BuildError {
+    /// An index that doesn't refer to anything.
+    #[error("{what} {index} does not exist")]
+    BadIndex {
+        /// Kind of object.
+        what: &'static str,
+        /// The index given.
+        index: u32,
+    },
+    /// Emitting shapes inside shape groups are not supported.
+    #[error("shapes inside a shapegroup cannot be emitters")]
+    EmitterInGroup,
+}
+
+/// Builds a [`Scene`] piece by piece.
+#[derive(Debug)]
+pub struct SceneBuilder {
+    meshes: Vec<TriangleMesh>,
+    shapes: Vec<Shape>,
+    shape_info: Vec<ShapeInfo>,
+    bsdfs: Vec<Bsdf>,
+    emitters: Vec<Emitter>,
+    groups: Vec<Vec<Item>>,
+    instances: Vec<Instance>,
+    camera: Option<Camera>,
+    film: Film,
+    sampler: Sampler,
+}
+
+impl Default for SceneBuilder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SceneBuilder {
+    /// An empty scene: Mitsuba's defaults (768×576 film with a Gaussian
+    /// filter, 4 independent samples per pixel).
+    pub fn new() -> Self {
+        Self {
+            meshes: Vec::new(),
+            shapes: Vec::new(),
+            shape_info: Vec::new(),
+            bsdfs: Vec::new(),
+            emitters: Vec::new(),
+            groups: vec![Vec::new()],
+            instances: Vec::new(),
+            camera: None,
+            film: Film::new(768, 576, Filter::default()),
+            sampler: Sampler::Independent(Independent { sample_count: 4 }),
+        }
+    }
+
+    /// Adds a BSDF; returns its index (for shapes and composite BSDFs).
+    pub fn add_bsdf(&mut self, b: Bsdf) -> u32 {
+        self.bsdfs.push(b);
+        self.bsdfs.len() as u32 - 1
+    }
+
+    /// Adds triangle data; returns its index (for [`crate::shape::MeshShape`]).
+    pub fn add_mesh(&mut self, m: TriangleMesh) -> u32 {
+        self.meshes.push(m);
+        self.meshes.len() as u32 - 1
+    }
+
+    /// Creates an empty shape group; returns its index.
+    pub fn add_group(&mut self) -> u32 {
+        self.groups.push(Vec::new());
+        self.groups.len() as u32 - 1
+    }
+
+    /// Adds a shape to the world with a BSDF (or the default diffuse when
+    /// `None`) and, for area lights, its emitted radiance.
+    pub fn add_shape(
+        &mut self,
+        shape: Shape,
+        bsdf: Option<u32>,
+        radiance: Option<Rgb>,
+    ) -> Result<u32, BuildError> {
+        self.add_shape_to(0, shape, bsdf, radiance)
+    }
+
+    /// Adds a shape to group `group` (0 is the world).
+    pub fn add_shape_to(
+        &mut self,
+        group: u32,
+        shape: Shape,
+        bsdf: Option<u32>,
+        radiance: Option<Rgb>,
+    ) -> Result<u32, BuildError> {
+        if group as usize >= self.groups.len() {
+            return Err(BuildError::BadIndex {
+                what: "shape group",
+                index: group,
+            });
+        }
+        if group != 0 && radiance.is_some() {
+            return Err(BuildError::EmitterInGroup);
+        }
+        if let Shape::Mesh(m) = shape {
+            if m.mesh as usize >= self.meshes.len() {
+                return Err(BuildError::BadIndex {
+                    what: "mesh",
+                    index: m.mesh,
+                });
+            }
+        }
+        let bsdf = match bsdf {
+            Some(b) if b as usize >= self.bsdfs.len() => {
+                return Err(BuildError::BadIndex {
+                    what: "bsdf",
+                    index: b,
+                })
+            }
+            Some(b) => b,
+            None => self.add_bsdf(Bsdf::Diffuse(Diffuse::default())),
+        };
+        let id = self.shapes.len() as u32;
+        let emitter = radiance.map(|radiance| {
+            if let Shape::Mesh(m) = shape {
+                self.meshes[m.mesh as usize].prepare_area_sampling();
+            }
+            self.emitters.push(Emitter::Area(AreaLight {
+                shape: id,
+                radiance,
+            }));
+            self.emitters.len() as u32 - 1
+        });
+        let prims = shape.prim_count(&self.meshes);
+        self.shapes.push(shape);
+        self.shape_info.push(ShapeInfo { bsdf, emitter });
+        self.groups[group as usize].extend((0..prims).map(|prim| Item::Prim { shape: id, prim }));
+        Ok(id)
+    }
+
+    /// Places group `group` in the world with `to_world`.
+    pub fn add_instance(&mut self, group: u32, to_world: Transform) -> Result<(), BuildError> {
+        if group == 0 || group as usize >= self.groups.len() {
+            return Err(BuildError::BadIndex {
+                what: "shape group",
+                index: group,
+            });
+        }
+        self.instances.push(Instance { group, to_world });
+        self.groups[0].push(Item::Instance(self.instances.len() as u32 - 1));
+        Ok(())
+    }
+
+    /// Adds a non-surface emitter (point, directional, environment).
+    pub fn add_emitter(&mut self, e: Emitter) -> u32 {
+        self.emitters.push(e);
+        self.emitters.len() as u32 - 1
+    }
+
+    /// Sets the camera.
+    pub fn camera(&mut self, c: Camera) -> &mut Self {
+        self.camera = Some(c);
+        self
+    }
+
+    /// Sets the film.
+    pub fn film(&mut self, f: Film) -> &mut Self {
+        self.film = f;
+        self
+    }
+
+    /// Sets the sampler.
+    pub fn sampler(&mut self, s: Sampler) -> &mut Self {
+        self.sampler = s;
+        self
+    }
+
+    /// Builds the acceleration structures and returns the scene. Without
+    /// a camera, a 45° perspective camera at the origin looking down +z
+    /// is used (Mitsuba's default sensor).
+    pub fn build(self) -> Result<Scene, BuildError> {
+        for b in &self.bsdfs {
+            if let Bsdf::TwoSided(t) = b {
+                for index in [t.front, t.back] {
+                    if index as usize >= self.bsdfs.len() {
+                        return Err(BuildError::BadIndex {
+                            what: "bsdf",
+                            index,
+                        });
+                    }
+                }
+            }
+        }
+        let camera = self.camera.unwrap_or_else(|| {
+            Camera::Perspective(Perspective::new(
+                glam::Affine3A::IDENTITY,
+                45.0,
+                FovAxis::X,
+                self.film.width,
+                self.film.height,
+                0.01,
+                1e4,
+            ))
+        });
+        // Build the groups' BVHs first: instance bounds need them.
+        let mut groups: Vec<Group> = self
+            .groups
+            .into_iter()
+            .map(|items| Group {
+                items,
+                bvh: Bvh::default(),
+            })
+            .collect();
+        for gi in (1..groups.len()).chain(std::iter::once(0)) {
+            let bounds: Vec<Bounds3> = groups[gi]
+                .items
+                .iter()
+                .map(|item| match *item {
+                    Item::Prim { shape, prim } => {
+                        self.shapes[shape as usize].prim_bounds(&self.meshes, prim)
+                    }
+                    Item::Instance(i) => {
+                        let inst = &self.instances[i as usize];
+                        let local = groups[inst.group as usize].bvh.bounds();
+                        if local.is_empty() {
+                            return Bounds3::EMPTY;
+                        }
+                        Bounds3::from_points(local.corners().map(|c| inst.to_world.point(c)))
+                    }
+                })
+                .collect();
+            groups[gi].bvh = Bvh::build(&bounds);
+        }
+        let environment_emitters = self
+            .emitters
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.is_environment())
+            .map(|(i, _)| i as u32)
+            .collect();
+        Ok(Scene {
+            meshes: self.meshes,
+            shapes: self.shapes,
+            shape_info: self.shape_info,
+            bsdfs: self.bsdfs,
+            emitters: self.emitters,
+            environment_emitters,
+            camera,
+            film: self.film,
+            sampler: self.sampler,
+            groups,
+            instances: self.instances,
+        })
+    }
+}

@@ -1,0 +1,267 @@
+//! Shapes, with Mitsuba 3's definitions and parameterizations.
+//!
+//! Every shape implements the same contract (the [`ShapeModel`] trait):
+//! primitive count and bounds for the BVH, ray intersection returning a
+//! small [`PrimHit`], the full [`SurfaceInteraction`] computed afterwards
+//! only for the closest hit, and area sampling for emitters. [`Shape`] is
+//! the closed enum stored in the scene; triangle data lives in scene-owned
+//! [`TriangleMesh`]es referenced by index.
+//!
+//! `cube` is not a variant: like Mitsuba, it is built as a 12-triangle
+//! mesh ([`cube::cube_mesh`]).
+
+pub mod cube;
+mod cylinder;
+mod disk;
+mod mesh;
+mod rectangle;
+mod sphere;
+
+pub use cylinder::Cylinder;
+pub use disk::Disk;
+pub use mesh::{MeshShape, TriangleMesh};
+pub use rectangle::Rectangle;
+pub use sphere::Sphere;
+
+use crate::interaction::SurfaceInteraction;
+use crate::math::{Bounds3, Ray};
+use glam::{Vec2, Vec3};
+
+/// The result of intersecting one primitive: the distance and whatever
+/// the shape needs to finish the interaction (barycentrics, local uv).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrimHit {
+    /// Ray parameter.
+    pub t: f32,
+    /// Shape-specific coordinates of the hit.
+    pub uv: Vec2,
+}
+
+/// A point sampled on a shape's surface.
+#[derive(Clone, Copy, Debug)]
+pub struct PositionSample {
+    /// The point.
+    pub p: Vec3,
+    /// Unit (shading) normal there, after `flip_normals`.
+    pub n: Vec3,
+    /// Density per unit area.
+    pub pdf: f32,
+}
+
+/// A point sampled on a shape as seen from a reference point, with the
+/// density per solid angle at the reference point.
+#[derive(Clone, Copy, Debug)]
+pub struct ShapeDirectionSample {
+    /// The point on the shape.
+    pub p: Vec3,
+    /// Unit normal there.
+    pub n: Vec3,
+    /// Density per solid angle (0 when the sample is unusable).
+    pub pdf: f32,
+}
+
+/// The contract every shape variant implements.
+pub trait ShapeModel {
+    /// Number of primitives the BVH sees.
+    fn prim_count(&self, meshes: &[TriangleMesh]) -> u32;
+    /// Bounds of one primitive.
+    fn prim_bounds(&self, meshes: &[TriangleMesh], prim: u32) -> Bounds3;
+    /// Nearest hit of `ray` with primitive `prim` in `(ray.t_min, ray.t_max)`.
+    fn intersect(&self, meshes: &[TriangleMesh], prim: u32, ray: &Ray) -> Option<PrimHit>;
+    /// The full interaction for a hit found by [`ShapeModel::intersect`].
+    fn interaction(
+        &self,
+        meshes: &[TriangleMesh],
+        prim: u32,
+        ray: &Ray,
+        hit: PrimHit,
+    ) -> SurfaceInteraction;
+    /// Total surface area.
+    fn surface_area(&self, meshes: &[TriangleMesh]) -> f32;
+    /// A point uniformly distributed by area.
+    fn sample_position(&self, meshes: &[TriangleMesh], u: Vec2) -> PositionSample;
+
+    /// A point on the shape seen from `ref_p`, with solid-angle density.
+    /// The default converts area sampling; shapes with better strategies
+    /// (spheres: the cone they subtend) override it.
+    fn sample_direction(
+        &self,
+        meshes: &[TriangleMesh],
+        ref_p: Vec3,
+        u: Vec2,
+    ) -> ShapeDirectionSample {
+        let ps = self.sample_position(meshes, u);
+        ShapeDirectionSample {
+            p: ps.p,
+            n: ps.n,
+            pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
+        }
+    }
+
+    /// Density of [`ShapeModel::sample_direction`] for the point `p` with
+    /// normal `n` on this shape, seen from `ref_p`.
+    fn pdf_direction(&self, meshes: &[TriangleMesh], ref_p: Vec3, p: Vec3, n: Vec3) -> f32 {
+        area_to_solid_angle(1.0 / self.surface_area(meshes), ref_p, p, n)
+    }
+}
+
+/// Converts a density per area at `p` (normal `n`) into one per solid
+/// angle at `ref_p`: pdf · d² / |cos θ|.
+#[inline]
+pub fn area_to_solid_angle(pdf_area: f32, ref_p: Vec3, p: Vec3, n: Vec3) -> f32 {
+    let d = p - ref_p;
+    let dist2 = d.length_squared();
+    let cos = (n.dot(d) / dist2.sqrt()).abs();
+    if cos <= 1e-7 || dist2 == 0.0 {
+        0.0
+    } else {
+        pdf_area * dist2 / cos
+    }
+}
+
+/// A shape (closed enum; see the module docs).
+#[derive(Clone, Copy, Debug)]
+pub enum Shape {
+    /// A triangle mesh (`obj`, `ply`, `cube`, …).
+    Mesh(MeshShape),
+    /// `sphere`.
+    Sphere(Sphere),
+    /// `rectangle`.
+    Rectangle(Rectangle),
+    /// `disk`.
+    Disk(Disk),
+    /// `cylinder`.
+    Cylinder(Cylinder),
+}
+
+macro_rules! dispatch {
+    ($self:expr, $s:ident => $e:expr) => {
+        match $self {
+            Shape::Mesh($s) => $e,
+            Shape::Sphere($s) => $e,
+            Shape::Rectangle($s) => $e,
+            Shape::Disk($s) => $e,
+            Shape::Cylinder($s) => $e,
+        }
+    };
+}
+
+impl ShapeModel for Shape {
+    #[inline]
+    fn prim_count(&self, meshes: &[TriangleMesh]) -> u32 {
+        dispatch!(self, s => s.prim_count(meshes))
+    }
+    #[inline]
+    fn prim_bounds(&self, meshes: &[TriangleMesh], prim: u32) -> Bounds3 {
+        dispatch!(self, s => s.prim_bounds(meshes, prim))
+    }
+    #[inline]
+    fn intersect(&self, meshes: &[TriangleMesh], prim: u32, ray: &Ray) -> Option<PrimHit> {
+        dispatch!(self, s => s.intersect(meshes, prim, ray))
+    }
+    #[inline]
+    fn interaction(
+        &self,
+        meshes: &[TriangleMesh],
+        prim: u32,
+        ray: &Ray,
+        hit: PrimHit,
+    ) -> SurfaceInteraction {
+        dispatch!(self, s => s.interaction(meshes, prim, ray, hit))
+    }
+    #[inline]
+    fn surface_area(&self, meshes: &[TriangleMesh]) -> f32 {
+        dispatch!(self, s => s.surface_area(meshes))
+    }
+    #[inline]
+    fn sample_position(&self, meshes: &[TriangleMesh], u: Vec2) -> PositionSample {
+        dispatch!(self, s => s.sample_position(meshes, u))
+    }
+    #[inline]
+    fn sample_direction(
+        &self,
+        meshes: &[TriangleMesh],
+        ref_p: Vec3,
+        u: Vec2,
+    ) -> ShapeDirectionSample {
+        dispatch!(self, s => s.sample_direction(meshes, ref_p, u))
+    }
+    #[inline]
+    fn pdf_direction(&self, meshes: &[TriangleMesh], ref_p: Vec3, p: Vec3, n: Vec3) -> f32 {
+        dispatch!(self, s => s.pdf_direction(meshes, ref_p, p, n))
+    }
+}
+
+/// Builds the interaction of a hit on a surface given local geometry in
+/// world space; shared by the analytic shapes.
+pub(crate) fn make_interaction(
+    ray: &Ray,
+    t: f32,
+    p: Vec3,
+    n: Vec3,
+    uv: Vec2,
+    dpdu: Vec3,
+    dpdv: Vec3,
+) -> SurfaceInteraction {
+    SurfaceInteraction {
+        p,
+        t,
+        n,
+        sh_frame: crate::math::Frame::from_normal_and_tangent(n, dpdu),
+        uv,
+        dpdu,
+        dpdv,
+        wo: -ray.d.normalize(),
+        shape: 0,
+        prim: 0,
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::sampler::Pcg32;
+    use crate::testing::chi2::{chi2_directions, Chi2Config};
+
+    /// Chi-square test of a shape's direction sampling from `ref_p`
+    /// against its `pdf_direction`, plus a check that sampled points lie
+    /// on the surface (a ray towards them hits the shape there).
+    pub(crate) fn check_shape_sampling(shape: &Shape, meshes: &[TriangleMesh], ref_p: Vec3) {
+        // Shapes have sharp silhouettes: integrate the pdf finely.
+        let cfg = Chi2Config {
+            integration_res: 24,
+            ..Chi2Config::default()
+        };
+        chi2_directions(
+            &cfg,
+            |r: &mut Pcg32| {
+                let s = shape.sample_direction(meshes, ref_p, r.next_2d());
+                (s.pdf > 0.0).then(|| ((s.p - ref_p).normalize(), s.pdf))
+            },
+            |d| {
+                let ray = Ray::new(ref_p, d);
+                closest_hit(shape, meshes, &ray)
+                    .map(|si| shape.pdf_direction(meshes, ref_p, si.p, si.n))
+                    .unwrap_or(0.0)
+            },
+        )
+        .unwrap();
+    }
+
+    /// Brute-force closest hit over all primitives of one shape.
+    pub(crate) fn closest_hit(
+        shape: &Shape,
+        meshes: &[TriangleMesh],
+        ray: &Ray,
+    ) -> Option<SurfaceInteraction> {
+        let mut r = *ray;
+        let mut best = None;
+        for prim in 0..shape.prim_count(meshes) {
+            if let Some(h) = shape.intersect(meshes, prim, &r) {
+                r.t_max = h.t;
+                best = Some((prim, h));
+            }
+        }
+        best.map(|(prim, h)| shape.interaction(meshes, prim, &r, h))
+    }
+}
