@@ -6,10 +6,12 @@
 //! unknown plugins and unread parameters with `file:line`.
 #![warn(missing_docs)]
 
+pub mod build;
 pub mod desc;
 pub mod error;
 pub mod image_io;
 pub mod mesh;
 pub mod xml;
 
+pub use build::{load_scene, load_scene_str, LoadedScene};
 pub use error::{Location, SceneError};

@@ -1,33 +1,55 @@
 //! The per-pixel Z-test of Mitsuba 3's render-regression suite
-//! (`test_renders.py`), written from its description: for every pixel and
-//! channel, z = |mean − ref| · √(spp / var_ref), where `var_ref` is the
-//! per-sample variance stored beside the reference mean; the two-sided
-//! p-value is erfc(z/√2); the test passes when every p-value exceeds the
-//! Šidák-corrected level α' = 1 − (1 − α)^(1/N) over the N values tested.
+//! (`src/render/tests/test_renders.py`), written from its description:
+//!
+//! - images are compared in CIE XYZ (mean, reference and reference
+//!   variance are all converted from linear sRGB with the same matrix);
+//! - for every pixel and channel, z = |mean − ref| · √(spp / max(var, 10⁻⁴)),
+//!   where `var` is the reference's *per-sample* variance;
+//! - the two-sided p-value is erfc(z/√2);
+//! - the significance level 0.01 is Šidák-corrected over the N pixels:
+//!   α = 1 − 0.99^(1/N);
+//! - the test passes when at least 99.75 % of the 3N channel tests have
+//!   p > α.
 
 /// Outcome of a Z-test.
 #[derive(Clone, Debug)]
 pub struct ZTestReport {
-    /// True when no value fell below the corrected significance level.
+    /// True when enough values passed.
     pub passed: bool,
-    /// How many values failed.
+    /// How many channel tests failed.
     pub failures: usize,
     /// The smallest p-value seen and its index in the data.
     pub min_p: (f64, usize),
     /// The Šidák-corrected level each p-value is held to.
     pub alpha_corrected: f64,
-    /// Values tested.
+    /// Channel tests made.
     pub count: usize,
 }
 
 /// Floor on the reference variance, so that pixels with (near-)zero
 /// variance in the reference don't make any round-off a failure.
 pub const VARIANCE_FLOOR: f64 = 1e-4;
+/// Fraction of channel tests that must pass.
+pub const PASS_FRACTION: f64 = 0.9975;
+
+/// Linear sRGB → CIE XYZ (D65).
+fn srgb_to_xyz(c: [f64; 3]) -> [f64; 3] {
+    [
+        0.412_453 * c[0] + 0.357_580 * c[1] + 0.180_423 * c[2],
+        0.212_671 * c[0] + 0.715_160 * c[1] + 0.072_169 * c[2],
+        0.019_334 * c[0] + 0.119_193 * c[1] + 0.950_227 * c[2],
+    ]
+}
+
+fn to_xyz(rgb: &[f32]) -> Vec<f64> {
+    rgb.chunks_exact(3)
+        .flat_map(|c| srgb_to_xyz([c[0] as f64, c[1] as f64, c[2] as f64]))
+        .collect()
+}
 
 /// Runs the Z-test of `mean` (an estimate from `spp` samples per pixel)
-/// against `reference` with per-sample variance `reference_var`, at
-/// significance `alpha` before correction. All slices are the same
-/// layout (e.g. interleaved RGB).
+/// against `reference` with per-sample variance `reference_var`. All three
+/// are interleaved linear-sRGB images of the same size.
 pub fn z_test(
     mean: &[f32],
     spp: u32,
@@ -35,12 +57,14 @@ pub fn z_test(
     reference_var: &[f32],
     alpha: f64,
 ) -> ZTestReport {
-    let n = mean.len().min(reference.len()).min(reference_var.len());
-    let alpha_corrected = 1.0 - (1.0 - alpha).powf(1.0 / n as f64);
+    let (mean, reference, var) = (to_xyz(mean), to_xyz(reference), to_xyz(reference_var));
+    let n = mean.len().min(reference.len()).min(var.len());
+    let pixels = (n / 3).max(1);
+    let alpha_corrected = 1.0 - (1.0 - alpha).powf(1.0 / pixels as f64);
     let (mut failures, mut min_p) = (0, (1.0f64, 0usize));
     for i in 0..n {
-        let var = (reference_var[i] as f64).max(VARIANCE_FLOOR);
-        let z = (mean[i] as f64 - reference[i] as f64).abs() * (spp as f64 / var).sqrt();
+        let v = var[i].max(VARIANCE_FLOOR);
+        let z = (mean[i] - reference[i]).abs() * (spp as f64 / v).sqrt();
         let p = if z.is_finite() {
             erfc(z / std::f64::consts::SQRT_2)
         } else {
@@ -54,7 +78,7 @@ pub fn z_test(
         }
     }
     ZTestReport {
-        passed: failures == 0 && n > 0,
+        passed: n > 0 && (n - failures) as f64 >= PASS_FRACTION * n as f64,
         failures,
         min_p,
         alpha_corrected,
@@ -99,7 +123,7 @@ mod tests {
     fn passes_noise_and_fails_bias() {
         // Means of 64 uniform samples with variance 1/12 around 0.5.
         let mut rng = Pcg32::new(3, 3);
-        let n = 4096;
+        let n = 3 * 4096;
         let mean: Vec<f32> = (0..n)
             .map(|_| (0..64).map(|_| rng.next_f32()).sum::<f32>() / 64.0)
             .collect();

@@ -1,0 +1,650 @@
+//! The builder: turns a [`SceneDesc`] into a [`yubin_core::Scene`] plus the
+//! integrator and render seed.
+//!
+//! It knows every plugin type and its parameters; an unknown type, a
+//! parameter nobody read or a nested object nobody used is an error naming
+//! `file:line`. Shared objects (`id` + `<ref>`) are built once.
+//!
+//! **Scenes written for older Mitsuba versions.** Parameters that older
+//! versions accepted and Mitsuba 3 dropped are read and ignored with a
+//! warning that names the line, rather than failing the load: the
+//! sampler's `light_samples` (Mitsuba 0.6), and the film's `file_format`,
+//! `banner`, `high_quality_edges` and `attach_log` (output options that
+//! `yubin render -o` decides instead). The XML front end already converts
+//! 0.6-style camelCase names. Sampler types Mitsuba 3 has but yubin renders
+//! differently (`stratified`, `multijitter`, `orthogonal`, `ldsampler`)
+//! render with the Owen-scrambled Sobol sampler, with a warning.
+
+use crate::desc::{Category, Object, SceneDesc, Spectrum, Value};
+use crate::error::SceneError;
+use crate::mesh::{obj::load_obj, ply::load_ply, MeshData};
+use glam::{DMat4, Vec3};
+use std::collections::HashMap;
+use std::path::Path;
+use std::rc::Rc;
+use yubin_core::bsdf::{Bsdf, Diffuse, TwoSided};
+use yubin_core::camera::{Camera, FovAxis, Perspective};
+use yubin_core::film::Film;
+use yubin_core::filter::Filter;
+use yubin_core::integrator::{DirectIntegrator, Integrator, MomentIntegrator, PathIntegrator};
+use yubin_core::light::{ConstantLight, DirectionalLight, Emitter, PointLight};
+use yubin_core::math::Transform;
+use yubin_core::sampler::{Independent, Sampler, Sobol};
+use yubin_core::shape::{
+    cube::cube_mesh_with, Cylinder, Disk, MeshShape, Rectangle, Shape, Sphere, TriangleMesh,
+};
+use yubin_core::spectrum::{sampled_spectrum_to_rgb, Rgb};
+use yubin_core::{Scene, SceneBuilder};
+
+/// A scene ready to render, with what the file said about how.
+#[derive(Debug)]
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// The integrator the file asked for (`path` when it asked for none).
+    pub integrator: Box<dyn Integrator>,
+    /// The sampler's `seed` parameter (0 by default).
+    pub seed: u32,
+    /// Things that loaded but deserve a mention (ignored legacy parameters).
+    pub warnings: Vec<String>,
+}
+
+/// Parses and builds a Mitsuba XML scene file; `defines` are `-D name=value`.
+pub fn load_scene(path: &Path, defines: &[(String, String)]) -> Result<LoadedScene, SceneError> {
+    let desc = crate::xml::parse_file(path, defines)?;
+    build_scene(&desc)
+}
+
+/// Like [`load_scene`] for a scene held in memory; `path` names it in
+/// messages and anchors relative file names.
+pub fn load_scene_str(
+    text: &str,
+    path: &Path,
+    defines: &[(String, String)],
+) -> Result<LoadedScene, SceneError> {
+    let desc = crate::xml::parse_str(text, path, defines)?;
+    build_scene(&desc)
+}
+
+/// Builds a parsed scene.
+pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
+    let mut b = Builder {
+        desc,
+        sb: SceneBuilder::new(),
+        bsdfs: HashMap::new(),
+        groups: HashMap::new(),
+        warnings: Vec::new(),
+    };
+    let root = &desc.root;
+    let integrator = match root.single_child(Category::Integrator)? {
+        Some(c) => b.integrator(&c.object)?,
+        None => Box::new(PathIntegrator::default()),
+    };
+    let mut seed = 0;
+    if let Some(sensor) = root.single_child(Category::Sensor)? {
+        seed = b.sensor(&sensor.object)?;
+    }
+    for child in &root.children {
+        let obj = &child.object;
+        match obj.category {
+            Category::Integrator | Category::Sensor => {}
+            Category::Bsdf => {
+                child.used.set(true);
+                b.bsdf(obj)?;
+            }
+            Category::Shape => {
+                child.used.set(true);
+                b.shape(obj, 0)?;
+            }
+            Category::Emitter => {
+                child.used.set(true);
+                b.emitter(obj)?;
+            }
+            _ => {}
+        }
+    }
+    root.check_unused_tree()?;
+    let scene =
+        b.sb.build()
+            .map_err(|e| SceneError::at(&root.loc, e.to_string()))?;
+    Ok(LoadedScene {
+        scene,
+        integrator,
+        seed,
+        warnings: b.warnings,
+    })
+}
+
+struct Builder<'a> {
+    desc: &'a SceneDesc,
+    sb: SceneBuilder,
+    bsdfs: HashMap<*const Object, u32>,
+    groups: HashMap<*const Object, u32>,
+    warnings: Vec<String>,
+}
+
+fn unknown_type(obj: &Object, known: &str) -> SceneError {
+    obj.error(format!(
+        "unknown {} type \"{}\" (known: {known})",
+        obj.category, obj.plugin_type
+    ))
+}
+
+/// A colour parameter: reflectance-like (`bounded`, clamped to [0, 1] for
+/// spectra) or emission-like.
+fn color(obj: &Object, name: &str, default: Option<Rgb>, bounded: bool) -> Result<Rgb, SceneError> {
+    let value = obj.rgb_or_spectrum(name)?;
+    let rgb = match value {
+        None => {
+            return default.ok_or_else(|| {
+                obj.error(format!("{} needs the parameter \"{name}\"", obj.describe()))
+            })
+        }
+        Some(Value::Rgb(c)) => Rgb::from_array(*c),
+        Some(Value::Float(v)) => Rgb::splat(*v as f32),
+        Some(Value::Integer(v)) => Rgb::splat(*v as f32),
+        Some(Value::Spectrum(Spectrum::Constant(v))) => constant_spectrum_to_rgb(*v, bounded),
+        Some(Value::Spectrum(Spectrum::Sampled(s))) => sampled_spectrum_to_rgb(s, bounded),
+        Some(_) => unreachable_color(obj, name)?,
+    };
+    if !rgb.is_finite() || (bounded && rgb.min_element() < 0.0) {
+        return Err(SceneError::at(
+            obj.loc_of(name),
+            format!(
+                "parameter \"{name}\" of {} has an invalid value {rgb}",
+                obj.describe()
+            ),
+        ));
+    }
+    Ok(rgb)
+}
+
+fn unreachable_color(obj: &Object, name: &str) -> Result<Rgb, SceneError> {
+    Err(obj.param_error(name, "expected a colour"))
+}
+
+/// A constant spectrum in an RGB renderer: grey for reflectances; for
+/// emitters, the sRGB colour of an equal-energy spectrum (illuminant E),
+/// which is what Mitsuba 3's RGB variants produce.
+fn constant_spectrum_to_rgb(v: f32, bounded: bool) -> Rgb {
+    if bounded {
+        Rgb::splat(v)
+    } else {
+        Rgb::new(1.204_88, 0.948_229, 0.909_267) * v
+    }
+}
+
+fn transform_of(obj: &Object, name: &str) -> Result<Transform, SceneError> {
+    let m: DMat4 = obj.transform(name)?;
+    Transform::from_mat4(m.as_mat4()).ok_or_else(|| {
+        let loc = if obj.has(name) {
+            obj.loc_of(name).clone()
+        } else {
+            obj.loc.clone()
+        };
+        SceneError::at(
+            &loc,
+            format!("\"{name}\" of {} is not invertible", obj.describe()),
+        )
+    })
+}
+
+fn positive_int(obj: &Object, name: &str, default: i64) -> Result<u32, SceneError> {
+    let v = obj.integer_or(name, default)?;
+    u32::try_from(v)
+        .ok()
+        .filter(|&v| v > 0)
+        .ok_or_else(|| obj.param_error(name, format!("must be a positive integer, not {v}")))
+}
+
+impl Builder<'_> {
+    fn warn_ignored(&mut self, obj: &Object, names: &[&str], why: &str) {
+        for name in names {
+            if obj.has(name) {
+                obj.mark_ignored(name);
+                self.warnings.push(format!(
+                    "{}: ignoring parameter \"{name}\" of {} ({why})",
+                    obj.loc_of(name),
+                    obj.describe()
+                ));
+            }
+        }
+    }
+
+    fn integrator(&mut self, obj: &Object) -> Result<Box<dyn Integrator>, SceneError> {
+        Ok(match obj.plugin_type.as_str() {
+            "path" => Box::new(PathIntegrator {
+                max_depth: obj.integer_or("max_depth", -1)?.clamp(-1, i32::MAX as i64) as i32,
+                rr_depth: obj.integer_or("rr_depth", 5)?.clamp(0, u32::MAX as i64) as u32,
+                hide_emitters: obj.boolean_or("hide_emitters", false)?,
+            }),
+            "direct" => {
+                let shading = obj.integer_or("shading_samples", 1)?.max(0) as u32;
+                Box::new(DirectIntegrator {
+                    emitter_samples: obj.integer_or("emitter_samples", shading as i64)?.max(0)
+                        as u32,
+                    bsdf_samples: obj.integer_or("bsdf_samples", shading as i64)?.max(0) as u32,
+                    hide_emitters: obj.boolean_or("hide_emitters", false)?,
+                })
+            }
+            "moment" => {
+                let nested = obj
+                    .single_child(Category::Integrator)?
+                    .ok_or_else(|| obj.error("the moment integrator needs a nested integrator"))?;
+                let nested = self.integrator(&nested.object)?;
+                Box::new(MomentIntegrator { nested })
+            }
+            _ => return Err(unknown_type(obj, "path, direct, moment")),
+        })
+    }
+
+    /// Builds camera, film and sampler; returns the sampler's seed.
+    fn sensor(&mut self, obj: &Object) -> Result<u32, SceneError> {
+        if obj.plugin_type != "perspective" {
+            return Err(unknown_type(obj, "perspective"));
+        }
+        let (film, pixel_size) = match obj.single_child(Category::Film)? {
+            Some(c) => self.film(&c.object)?,
+            None => (Film::new(768, 576, Filter::default()), [768, 576]),
+        };
+        let (sampler, seed) = match obj.single_child(Category::Sampler)? {
+            Some(c) => self.sampler(&c.object)?,
+            None => (Sampler::Independent(Independent { sample_count: 4 }), 0),
+        };
+        let fov_axis = match obj.string_or("fov_axis", "x")? {
+            "x" => FovAxis::X,
+            "y" => FovAxis::Y,
+            "diagonal" => FovAxis::Diagonal,
+            "smaller" => FovAxis::Smaller,
+            "larger" => FovAxis::Larger,
+            other => {
+                return Err(obj.param_error(
+                    "fov_axis",
+                    format!("must be x, y, diagonal, smaller or larger, not \"{other}\""),
+                ))
+            }
+        };
+        let fov = obj.float_or("fov", 45.0)?;
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(obj.param_error(
+                "fov",
+                format!("must be between 0 and 180 degrees, not {fov}"),
+            ));
+        }
+        let near = obj.float_or("near_clip", 0.01)?;
+        let far = obj.float_or("far_clip", 10_000.0)?;
+        if !(near > 0.0 && far > near) {
+            return Err(obj.param_error(
+                "near_clip",
+                format!("clip planes must satisfy 0 < near < far (near {near}, far {far})"),
+            ));
+        }
+        let to_world = transform_of(obj, "to_world")?;
+        // Mitsuba's to_world may carry a scale; the camera uses its rigid part.
+        let m = to_world.m;
+        let rigid = glam::Affine3A::from_cols(
+            m.matrix3.x_axis.normalize(),
+            m.matrix3.y_axis.normalize(),
+            m.matrix3.z_axis.normalize(),
+            m.translation,
+        );
+        self.warn_ignored(
+            obj,
+            &["shutter_open", "shutter_close"],
+            "no motion blur yet",
+        );
+        self.sb.camera(Camera::Perspective(Perspective::new(
+            rigid,
+            fov,
+            fov_axis,
+            pixel_size[0],
+            pixel_size[1],
+            near,
+            far,
+        )));
+        self.sb.film(film).sampler(sampler);
+        Ok(seed)
+    }
+
+    fn film(&mut self, obj: &Object) -> Result<(Film, [u32; 2]), SceneError> {
+        if obj.plugin_type != "hdrfilm" {
+            return Err(unknown_type(obj, "hdrfilm"));
+        }
+        let width = positive_int(obj, "width", 768)?;
+        let height = positive_int(obj, "height", 576)?;
+        let ox = obj.integer_or("crop_offset_x", 0)?.max(0) as u32;
+        let oy = obj.integer_or("crop_offset_y", 0)?.max(0) as u32;
+        let cw = positive_int(obj, "crop_width", (width.saturating_sub(ox)).max(1) as i64)?;
+        let ch = positive_int(
+            obj,
+            "crop_height",
+            (height.saturating_sub(oy)).max(1) as i64,
+        )?;
+        if ox + cw > width || oy + ch > height {
+            return Err(obj.error(format!(
+                "the crop window {cw}x{ch}+{ox}+{oy} does not fit in the {width}x{height} film"
+            )));
+        }
+        for (name, allowed) in [
+            (
+                "pixel_format",
+                &["rgb", "rgba", "luminance", "luminance_alpha", "xyz", "xyza"][..],
+            ),
+            ("component_format", &["float16", "float32", "uint32"][..]),
+        ] {
+            if let Some(v) = obj.string(name)? {
+                if !allowed.contains(&v) {
+                    return Err(obj.param_error(
+                        name,
+                        format!("must be one of {}, not \"{v}\"", allowed.join(", ")),
+                    ));
+                }
+            }
+        }
+        obj.boolean("sample_border")?;
+        self.warn_ignored(
+            obj,
+            &["file_format", "banner", "high_quality_edges", "attach_log"],
+            "a parameter of older Mitsuba versions; the output file is chosen with -o",
+        );
+        let filter = match obj.single_child(Category::Rfilter)? {
+            Some(c) => rfilter(&c.object)?,
+            None => Filter::default(),
+        };
+        let film = Film {
+            width,
+            height,
+            crop_offset: [ox, oy],
+            crop_size: [cw, ch],
+            filter,
+        };
+        Ok((film, [width, height]))
+    }
+
+    fn sampler(&mut self, obj: &Object) -> Result<(Sampler, u32), SceneError> {
+        let sample_count = positive_int(obj, "sample_count", 4)?;
+        let seed = obj.integer_or("seed", 0)? as u32;
+        self.warn_ignored(
+            obj,
+            &["light_samples"],
+            "a Mitsuba 0.6 parameter; Mitsuba 3 has none",
+        );
+        let sampler = match obj.plugin_type.as_str() {
+            "independent" => Sampler::Independent(Independent { sample_count }),
+            "sobol" => Sampler::Sobol(Sobol { sample_count }),
+            "stratified" | "multijitter" | "orthogonal" | "ldsampler" => {
+                obj.mark_ignored("jitter");
+                obj.mark_ignored("strength");
+                self.warnings.push(format!("{}: sampler \"{}\" renders with yubin's Owen-scrambled Sobol sampler", obj.loc, obj.plugin_type));
+                Sampler::Sobol(Sobol { sample_count })
+            }
+            _ => return Err(unknown_type(obj, "independent, sobol (stratified, multijitter, orthogonal and ldsampler map to sobol)")),
+        };
+        Ok((sampler, seed))
+    }
+
+    fn bsdf(&mut self, obj: &Rc<Object>) -> Result<u32, SceneError> {
+        let key = Rc::as_ptr(obj);
+        if let Some(&id) = self.bsdfs.get(&key) {
+            return Ok(id);
+        }
+        let bsdf = match obj.plugin_type.as_str() {
+            "diffuse" => Bsdf::Diffuse(Diffuse {
+                reflectance: color(obj, "reflectance", Some(Rgb::splat(0.5)), true)?,
+            }),
+            "twosided" => {
+                let kids: Vec<Rc<Object>> = obj
+                    .children_of(Category::Bsdf)
+                    .map(|c| c.object.clone())
+                    .collect();
+                let (front, back) = match kids.as_slice() {
+                    [f] => {
+                        let f = self.bsdf(f)?;
+                        (f, f)
+                    }
+                    [f, b] => (self.bsdf(f)?, self.bsdf(b)?),
+                    _ => {
+                        return Err(obj.error(format!(
+                            "twosided needs one or two nested BSDFs, found {}",
+                            kids.len()
+                        )))
+                    }
+                };
+                Bsdf::TwoSided(TwoSided { front, back })
+            }
+            _ => return Err(unknown_type(obj, "diffuse, twosided")),
+        };
+        let id = self.sb.add_bsdf(bsdf);
+        self.bsdfs.insert(key, id);
+        Ok(id)
+    }
+
+    fn shape_bsdf(&mut self, obj: &Object) -> Result<Option<u32>, SceneError> {
+        match obj.single_child(Category::Bsdf)? {
+            Some(c) => Ok(Some(self.bsdf(&c.object.clone())?)),
+            None => Ok(None),
+        }
+    }
+
+    fn area_radiance(&mut self, obj: &Object) -> Result<Option<Rgb>, SceneError> {
+        let Some(c) = obj.single_child(Category::Emitter)? else {
+            return Ok(None);
+        };
+        let e = &c.object;
+        if e.plugin_type != "area" {
+            return Err(e.error(format!(
+                "a shape can only carry an \"area\" emitter, not \"{}\"",
+                e.plugin_type
+            )));
+        }
+        Ok(Some(color(e, "radiance", None, false)?))
+    }
+
+    /// Builds a shape into group `group` (0: the world).
+    fn shape(&mut self, obj: &Rc<Object>, group: u32) -> Result<(), SceneError> {
+        let kind = obj.plugin_type.as_str();
+        match kind {
+            "shapegroup" => {
+                if group != 0 {
+                    return Err(obj.error("shape groups cannot be nested"));
+                }
+                self.shape_group(obj)?;
+                return Ok(());
+            }
+            "instance" => {
+                if group != 0 {
+                    return Err(obj.error("instances cannot be placed inside shape groups"));
+                }
+                let target = obj.single_child(Category::Shape)?.ok_or_else(|| {
+                    obj.error("an instance needs a shapegroup (use <ref id=\"...\"/>)")
+                })?;
+                if target.object.plugin_type != "shapegroup" {
+                    return Err(SceneError::at(
+                        &target.loc,
+                        "an instance must refer to a shapegroup",
+                    ));
+                }
+                let g = self.shape_group(&target.object.clone())?;
+                let t = transform_of(obj, "to_world")?;
+                return self
+                    .sb
+                    .add_instance(g, t)
+                    .map_err(|e| obj.error(e.to_string()));
+            }
+            _ => {}
+        }
+        let flip = obj.boolean_or("flip_normals", false)?;
+        let to_world = transform_of(obj, "to_world")?;
+        let shape = match kind {
+            "obj" | "ply" => {
+                let name = obj
+                    .string("filename")?
+                    .ok_or_else(|| obj.error(format!("{} needs a \"filename\"", obj.describe())))?;
+                let path = self.desc.resolve_file(name, obj.loc_of("filename"))?;
+                let face_normals = obj.boolean_or("face_normals", false)?;
+                let data = if kind == "obj" {
+                    load_obj(&path, obj.boolean_or("flip_tex_coords", true)?)?
+                } else {
+                    load_ply(&path)?
+                };
+                self.mesh_shape(obj, data, face_normals, flip, &to_world)?
+            }
+            "cube" => {
+                let mut mesh = cube_mesh_with(flip);
+                mesh.transform(&to_world);
+                Shape::Mesh(MeshShape {
+                    mesh: self.sb.add_mesh(mesh),
+                })
+            }
+            "sphere" => {
+                let center = obj.point_or("center", Vec3::ZERO)?;
+                let radius = obj.float_or("radius", 1.0)?;
+                let scale = to_world.vector(Vec3::X).length();
+                let m3 = to_world.m.matrix3;
+                let rotation = glam::Mat3::from_cols(
+                    m3.x_axis.normalize().into(),
+                    m3.y_axis.normalize().into(),
+                    m3.z_axis.normalize().into(),
+                );
+                if !(radius > 0.0) {
+                    return Err(
+                        obj.param_error("radius", format!("must be positive, not {radius}"))
+                    );
+                }
+                Shape::Sphere(Sphere {
+                    center: to_world.point(center),
+                    radius: radius * scale,
+                    rotation,
+                    flip_normals: flip,
+                })
+            }
+            "rectangle" => Shape::Rectangle(Rectangle {
+                to_world,
+                flip_normals: flip,
+            }),
+            "disk" => Shape::Disk(Disk {
+                to_world,
+                flip_normals: flip,
+            }),
+            "cylinder" => {
+                let p0 = obj.point_or("p0", Vec3::ZERO)?;
+                let p1 = obj.point_or("p1", Vec3::Z)?;
+                let radius = obj.float_or("radius", 1.0)?;
+                if !(radius > 0.0) || p0 == p1 {
+                    return Err(obj.error("a cylinder needs a positive radius and p0 != p1"));
+                }
+                let local = Transform::new(Cylinder::object_to_world(p0, p1, radius))
+                    .ok_or_else(|| obj.error("degenerate cylinder"))?;
+                Shape::Cylinder(Cylinder {
+                    to_world: to_world.after(&local),
+                    flip_normals: flip,
+                })
+            }
+            _ => {
+                return Err(unknown_type(
+                    obj,
+                    "obj, ply, cube, sphere, rectangle, disk, cylinder, shapegroup, instance",
+                ))
+            }
+        };
+        let bsdf = self.shape_bsdf(obj)?;
+        let radiance = self.area_radiance(obj)?;
+        self.sb
+            .add_shape_to(group, shape, bsdf, radiance)
+            .map_err(|e| obj.error(e.to_string()))?;
+        Ok(())
+    }
+
+    fn mesh_shape(
+        &mut self,
+        obj: &Object,
+        data: MeshData,
+        face_normals: bool,
+        flip: bool,
+        to_world: &Transform,
+    ) -> Result<Shape, SceneError> {
+        let mut mesh = TriangleMesh::new(
+            data.positions,
+            data.normals.unwrap_or_default(),
+            data.uvs.unwrap_or_default(),
+            data.indices,
+            face_normals,
+            flip,
+        )
+        .map_err(|e| obj.error(format!("{}: {e}", obj.describe())))?;
+        mesh.transform(to_world);
+        Ok(Shape::Mesh(MeshShape {
+            mesh: self.sb.add_mesh(mesh),
+        }))
+    }
+
+    fn shape_group(&mut self, obj: &Rc<Object>) -> Result<u32, SceneError> {
+        let key = Rc::as_ptr(obj);
+        if let Some(&g) = self.groups.get(&key) {
+            return Ok(g);
+        }
+        let g = self.sb.add_group();
+        self.groups.insert(key, g);
+        let shapes: Vec<Rc<Object>> = obj
+            .children_of(Category::Shape)
+            .map(|c| c.object.clone())
+            .collect();
+        for s in &shapes {
+            self.shape(s, g)?;
+        }
+        Ok(g)
+    }
+
+    fn emitter(&mut self, obj: &Object) -> Result<(), SceneError> {
+        let e = match obj.plugin_type.as_str() {
+            "point" => {
+                let t = transform_of(obj, "to_world")?;
+                let position = obj.point_or("position", Vec3::ZERO)?;
+                Emitter::Point(PointLight {
+                    position: t.point(position),
+                    intensity: color(obj, "intensity", Some(Rgb::ONE), false)?,
+                })
+            }
+            "directional" => {
+                let t = transform_of(obj, "to_world")?;
+                let d = obj.vector_or("direction", Vec3::Z)?;
+                let direction = t
+                    .vector(d)
+                    .try_normalize()
+                    .ok_or_else(|| obj.param_error("direction", "must not be zero"))?;
+                Emitter::Directional(DirectionalLight {
+                    direction,
+                    irradiance: color(obj, "irradiance", Some(Rgb::ONE), false)?,
+                })
+            }
+            "constant" => Emitter::Constant(ConstantLight {
+                radiance: color(obj, "radiance", Some(Rgb::ONE), false)?,
+            }),
+            "area" => return Err(obj.error("an area emitter must be nested inside a shape")),
+            _ => return Err(unknown_type(obj, "area, point, directional, constant")),
+        };
+        self.sb.add_emitter(e);
+        Ok(())
+    }
+}
+
+fn rfilter(obj: &Object) -> Result<Filter, SceneError> {
+    Ok(match obj.plugin_type.as_str() {
+        "box" => Filter::Box,
+        "tent" => {
+            let radius = obj.float_or("radius", 1.0)?;
+            if !(radius > 0.0) {
+                return Err(obj.param_error("radius", "must be positive"));
+            }
+            Filter::Tent { radius }
+        }
+        "gaussian" => {
+            let stddev = obj.float_or("stddev", 0.5)?;
+            if !(stddev > 0.0) {
+                return Err(obj.param_error("stddev", "must be positive"));
+            }
+            Filter::Gaussian { stddev }
+        }
+        _ => return Err(unknown_type(obj, "box, tent, gaussian")),
+    })
+}
