@@ -251,26 +251,7 @@ impl Builder<'_> {
             Some(c) => self.sampler(&c.object)?,
             None => (Sampler::Independent(Independent { sample_count: 4 }), 0),
         };
-        let fov_axis = match obj.string_or("fov_axis", "x")? {
-            "x" => FovAxis::X,
-            "y" => FovAxis::Y,
-            "diagonal" => FovAxis::Diagonal,
-            "smaller" => FovAxis::Smaller,
-            "larger" => FovAxis::Larger,
-            other => {
-                return Err(obj.param_error(
-                    "fov_axis",
-                    format!("must be x, y, diagonal, smaller or larger, not \"{other}\""),
-                ))
-            }
-        };
-        let fov = obj.float_or("fov", 45.0)?;
-        if !(fov > 0.0 && fov < 180.0) {
-            return Err(obj.param_error(
-                "fov",
-                format!("must be between 0 and 180 degrees, not {fov}"),
-            ));
-        }
+        let (fov, fov_axis) = field_of_view(obj)?;
         let near = obj.float_or("near_clip", 0.01)?;
         let far = obj.float_or("far_clip", 10_000.0)?;
         if !(near > 0.0 && far > near) {
@@ -626,6 +607,44 @@ impl Builder<'_> {
         self.sb.add_emitter(e);
         Ok(())
     }
+}
+
+/// `fov` along `fov_axis`, or, without `fov`, the diagonal field of view
+/// of a 35 mm-equivalent `focal_length` (default "50mm"), as Mitsuba does.
+fn field_of_view(obj: &Object) -> Result<(f32, FovAxis), SceneError> {
+    let axis = match obj.string_or("fov_axis", "x")? {
+        "x" => FovAxis::X,
+        "y" => FovAxis::Y,
+        "diagonal" => FovAxis::Diagonal,
+        "smaller" => FovAxis::Smaller,
+        "larger" => FovAxis::Larger,
+        other => return Err(obj.param_error("fov_axis", format!("must be x, y, diagonal, smaller or larger, not \"{other}\""))),
+    };
+    let (fov, axis) = match obj.float("fov")? {
+        Some(fov) => {
+            if obj.has("focal_length") {
+                return Err(obj.param_error("focal_length", "give either fov or focal_length, not both"));
+            }
+            (fov, axis)
+        }
+        None => {
+            let text = obj.string_or("focal_length", "50mm")?;
+            let mm: f32 = text
+                .trim()
+                .trim_end_matches("mm")
+                .trim()
+                .parse()
+                .ok()
+                .filter(|f: &f32| *f > 0.0)
+                .ok_or_else(|| obj.param_error("focal_length", format!("must be a length like \"50mm\", not \"{text}\"")))?;
+            let diagonal_mm = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
+            ((2.0 * (diagonal_mm / (2.0 * mm)).atan()).to_degrees(), FovAxis::Diagonal)
+        }
+    };
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(obj.param_error("fov", format!("must be between 0 and 180 degrees, not {fov}")));
+    }
+    Ok((fov, axis))
 }
 
 fn rfilter(obj: &Object) -> Result<Filter, SceneError> {
