@@ -108,8 +108,9 @@ fn render_tile(
 ) -> (TileBuffer, u64) {
     let film = &scene.film;
     let mut buf = TileBuffer::new(tile, &film.filter, channels);
-    let mut values = [0.0f32; 64];
-    let values = &mut values[..channels.min(64)];
+    // One buffer per tile (not per sample), sized to the integrator.
+    let mut values = vec![0.0f32; channels];
+    let values = values.as_mut_slice();
     let mut dropped = 0;
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {

@@ -247,10 +247,9 @@ fn instance_to_world(local: &SurfaceInteraction, t: &Transform) -> SurfaceIntera
 }
 
 /// Errors from [`SceneBuilder::build`] and its methods.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub enum BuildError {
     /// An index that doesn't refer to anything.
-    #[error("{what} {index} does not exist")]
     BadIndex {
         /// Kind of object.
         what: &'static str,
@@ -258,9 +257,21 @@ pub enum BuildError {
         index: u32,
     },
     /// Emitting shapes inside shape groups are not supported.
-    #[error("shapes inside a shapegroup cannot be emitters")]
     EmitterInGroup,
 }
+
+impl std::fmt::Display for BuildError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BuildError::BadIndex { what, index } => write!(f, "{what} {index} does not exist"),
+            BuildError::EmitterInGroup => {
+                write!(f, "shapes inside a shapegroup cannot be emitters")
+            }
+        }
+    }
+}
+
+impl std::error::Error for BuildError {}
 
 /// Builds a [`Scene`] piece by piece.
 #[derive(Debug)]
@@ -422,7 +433,7 @@ impl SceneBuilder {
 
     /// Builds the acceleration structures and returns the scene. Without
     /// a camera, a 45° perspective camera at the origin looking down +z
-    /// is used (Mitsuba's default sensor).
+    /// is used.
     pub fn build(self) -> Result<Scene, BuildError> {
         for b in &self.bsdfs {
             if let Bsdf::TwoSided(t) = b {
@@ -496,5 +507,157 @@ impl SceneBuilder {
             groups,
             instances: self.instances,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::Pcg32;
+    use crate::sampling::square_to_uniform_sphere;
+    use crate::shape::{cube::cube_mesh, Cylinder, Disk, MeshShape, Rectangle, Sphere};
+    use glam::{Affine3A, Vec3};
+
+    fn t(m: Affine3A) -> Transform {
+        Transform::new(m).unwrap()
+    }
+
+    /// Every shape kind, in the world and in two instances of a group.
+    fn mixed_scene() -> Scene {
+        let mut b = SceneBuilder::new();
+        let mut cube = cube_mesh();
+        cube.transform(&t(
+            Affine3A::from_translation(Vec3::new(2.0, 0.0, 0.0)) * Affine3A::from_rotation_z(0.3)
+        ));
+        let cube = b.add_mesh(cube);
+        b.add_shape(Shape::Mesh(MeshShape { mesh: cube }), None, None)
+            .unwrap();
+        b.add_shape(
+            Shape::Sphere(Sphere::new(Vec3::new(-2.0, 0.5, 0.0), 0.8, false)),
+            None,
+            None,
+        )
+        .unwrap();
+        b.add_shape(
+            Shape::Rectangle(Rectangle {
+                to_world: t(Affine3A::from_translation(Vec3::new(0.0, -2.0, 0.0))
+                    * Affine3A::from_rotation_x(1.2)),
+                flip_normals: false,
+            }),
+            None,
+            None,
+        )
+        .unwrap();
+        b.add_shape(
+            Shape::Disk(Disk {
+                to_world: t(Affine3A::from_translation(Vec3::new(0.0, 2.0, 1.0))),
+                flip_normals: true,
+            }),
+            None,
+            None,
+        )
+        .unwrap();
+        let cyl =
+            Cylinder::object_to_world(Vec3::new(0.0, 0.0, -1.0), Vec3::new(0.5, 0.0, 1.0), 0.4);
+        b.add_shape(
+            Shape::Cylinder(Cylinder {
+                to_world: t(cyl),
+                flip_normals: false,
+            }),
+            None,
+            None,
+        )
+        .unwrap();
+        let g = b.add_group();
+        let mut small = cube_mesh();
+        small.transform(&t(Affine3A::from_scale(Vec3::splat(0.3))));
+        let small = b.add_mesh(small);
+        b.add_shape_to(g, Shape::Mesh(MeshShape { mesh: small }), None, None)
+            .unwrap();
+        b.add_shape_to(
+            g,
+            Shape::Sphere(Sphere::new(Vec3::new(0.0, 0.0, 0.6), 0.25, false)),
+            None,
+            None,
+        )
+        .unwrap();
+        b.add_instance(g, t(Affine3A::from_translation(Vec3::new(0.0, 0.0, 2.5))))
+            .unwrap();
+        b.add_instance(
+            g,
+            t(Affine3A::from_translation(Vec3::new(1.0, 1.0, -2.5))
+                * Affine3A::from_scale(Vec3::new(1.5, 0.7, 1.0))),
+        )
+        .unwrap();
+        b.build().unwrap()
+    }
+
+    /// Closest hit by testing every primitive of every item.
+    fn brute_force(scene: &Scene, ray: &Ray) -> Option<(u32, u32, f32)> {
+        let mut best: Option<(u32, u32, f32)> = None;
+        let mut consider = |shape: u32, prim: u32, r: &Ray| {
+            if let Some(h) = scene.shapes[shape as usize].intersect(&scene.meshes, prim, r) {
+                if best.is_none_or(|b| h.t < b.2) {
+                    best = Some((shape, prim, h.t));
+                }
+            }
+        };
+        for item in &scene.groups[0].items {
+            match *item {
+                Item::Prim { shape, prim } => consider(shape, prim, ray),
+                Item::Instance(i) => {
+                    let inst = &scene.instances[i as usize];
+                    let local = to_local_ray(ray, &inst.to_world);
+                    for it in &scene.groups[inst.group as usize].items {
+                        if let Item::Prim { shape, prim } = *it {
+                            consider(shape, prim, &local);
+                        }
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn bvh_closest_hit_equals_brute_force_for_every_shape_kind_and_instances() {
+        let scene = mixed_scene();
+        let mut rng = Pcg32::new(42, 0);
+        let mut hits = 0;
+        for _ in 0..20_000 {
+            let o = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 10.0;
+            // Half the rays aim at the geometry, half go anywhere.
+            let d = if rng.next_f32() < 0.5 {
+                square_to_uniform_sphere(rng.next_2d())
+            } else {
+                ((Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 5.0 - o)
+                    .normalize()
+            };
+            let ray = Ray::new(o, d);
+            let expected = brute_force(&scene, &ray);
+            let got = scene.intersect(&ray);
+            match (expected, got) {
+                (None, None) => {}
+                (Some((shape, prim, t)), Some(si)) => {
+                    hits += 1;
+                    assert_eq!((si.shape, si.prim), (shape, prim));
+                    assert!((si.t - t).abs() <= 1e-5 * t.max(1.0), "{} vs {t}", si.t);
+                    assert!(
+                        (si.p - ray.at(t)).length() < 1e-3 * t.max(1.0),
+                        "hit point off the ray"
+                    );
+                }
+                (e, g) => panic!(
+                    "brute force {e:?}, BVH {:?}",
+                    g.map(|s| (s.shape, s.prim, s.t))
+                ),
+            }
+            assert_eq!(
+                scene.occluded(&ray),
+                expected.is_some(),
+                "any-hit disagrees with closest hit"
+            );
+        }
+        assert!(hits > 2000, "too few hits ({hits}) to mean anything");
     }
 }

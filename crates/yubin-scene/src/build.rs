@@ -189,6 +189,22 @@ fn transform_of(obj: &Object, name: &str) -> Result<Transform, SceneError> {
     })
 }
 
+/// `max_depth`: −1 (unlimited) or a non-negative path length.
+fn max_depth(obj: &Object) -> Result<i32, SceneError> {
+    let v = obj.integer_or("max_depth", -1)?;
+    i32::try_from(v).ok().filter(|&d| d >= -1).ok_or_else(|| {
+        obj.param_error(
+            "max_depth",
+            format!("must be -1 (unlimited) or at least 0, not {v}"),
+        )
+    })
+}
+
+/// True for positive numbers, false for NaN.
+fn is_positive(v: f32) -> bool {
+    v > 0.0
+}
+
 fn positive_int(obj: &Object, name: &str, default: i64) -> Result<u32, SceneError> {
     let v = obj.integer_or(name, default)?;
     u32::try_from(v)
@@ -214,7 +230,7 @@ impl Builder<'_> {
     fn integrator(&mut self, obj: &Object) -> Result<Box<dyn Integrator>, SceneError> {
         Ok(match obj.plugin_type.as_str() {
             "path" => Box::new(PathIntegrator {
-                max_depth: obj.integer_or("max_depth", -1)?.clamp(-1, i32::MAX as i64) as i32,
+                max_depth: max_depth(obj)?,
                 rr_depth: obj.integer_or("rr_depth", 5)?.clamp(0, u32::MAX as i64) as u32,
                 hide_emitters: obj.boolean_or("hide_emitters", false)?,
             }),
@@ -322,7 +338,9 @@ impl Builder<'_> {
                 }
             }
         }
-        obj.boolean("sample_border")?;
+        if obj.boolean("sample_border")? == Some(true) {
+            self.warnings.push(format!("{}: sample_border is not supported; edge pixels see only samples from inside the film", obj.loc_of("sample_border")));
+        }
         self.warn_ignored(
             obj,
             &["file_format", "banner", "high_quality_edges", "attach_log"],
@@ -378,6 +396,11 @@ impl Builder<'_> {
                     .children_of(Category::Bsdf)
                     .map(|c| c.object.clone())
                     .collect();
+                if let Some(nested) = kids.iter().find(|k| k.plugin_type == "twosided") {
+                    return Err(
+                        nested.error("a twosided BSDF cannot contain another twosided BSDF")
+                    );
+                }
                 let (front, back) = match kids.as_slice() {
                     [f] => {
                         let f = self.bsdf(f)?;
@@ -480,14 +503,20 @@ impl Builder<'_> {
             "sphere" => {
                 let center = obj.point_or("center", Vec3::ZERO)?;
                 let radius = obj.float_or("radius", 1.0)?;
-                let scale = to_world.vector(Vec3::X).length();
+                let scales = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| to_world.vector(a).length());
+                let scale = scales[0];
+                if (scales[1] - scale).abs() > 1e-4 * scale
+                    || (scales[2] - scale).abs() > 1e-4 * scale
+                {
+                    self.warnings.push(format!("{}: sphere: to_world has a non-uniform scale {scales:?}; using {scale} for the radius", obj.loc));
+                }
                 let m3 = to_world.m.matrix3;
                 let rotation = glam::Mat3::from_cols(
                     m3.x_axis.normalize().into(),
                     m3.y_axis.normalize().into(),
                     m3.z_axis.normalize().into(),
                 );
-                if !(radius > 0.0) {
+                if !is_positive(radius) {
                     return Err(
                         obj.param_error("radius", format!("must be positive, not {radius}"))
                     );
@@ -511,7 +540,7 @@ impl Builder<'_> {
                 let p0 = obj.point_or("p0", Vec3::ZERO)?;
                 let p1 = obj.point_or("p1", Vec3::Z)?;
                 let radius = obj.float_or("radius", 1.0)?;
-                if !(radius > 0.0) || p0 == p1 {
+                if !is_positive(radius) || p0 == p1 {
                     return Err(obj.error("a cylinder needs a positive radius and p0 != p1"));
                 }
                 let local = Transform::new(Cylinder::object_to_world(p0, p1, radius))
@@ -618,12 +647,19 @@ fn field_of_view(obj: &Object) -> Result<(f32, FovAxis), SceneError> {
         "diagonal" => FovAxis::Diagonal,
         "smaller" => FovAxis::Smaller,
         "larger" => FovAxis::Larger,
-        other => return Err(obj.param_error("fov_axis", format!("must be x, y, diagonal, smaller or larger, not \"{other}\""))),
+        other => {
+            return Err(obj.param_error(
+                "fov_axis",
+                format!("must be x, y, diagonal, smaller or larger, not \"{other}\""),
+            ))
+        }
     };
     let (fov, axis) = match obj.float("fov")? {
         Some(fov) => {
             if obj.has("focal_length") {
-                return Err(obj.param_error("focal_length", "give either fov or focal_length, not both"));
+                return Err(
+                    obj.param_error("focal_length", "give either fov or focal_length, not both")
+                );
             }
             (fov, axis)
         }
@@ -636,13 +672,24 @@ fn field_of_view(obj: &Object) -> Result<(f32, FovAxis), SceneError> {
                 .parse()
                 .ok()
                 .filter(|f: &f32| *f > 0.0)
-                .ok_or_else(|| obj.param_error("focal_length", format!("must be a length like \"50mm\", not \"{text}\"")))?;
+                .ok_or_else(|| {
+                    obj.param_error(
+                        "focal_length",
+                        format!("must be a length like \"50mm\", not \"{text}\""),
+                    )
+                })?;
             let diagonal_mm = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
-            ((2.0 * (diagonal_mm / (2.0 * mm)).atan()).to_degrees(), FovAxis::Diagonal)
+            (
+                (2.0 * (diagonal_mm / (2.0 * mm)).atan()).to_degrees(),
+                FovAxis::Diagonal,
+            )
         }
     };
     if !(fov > 0.0 && fov < 180.0) {
-        return Err(obj.param_error("fov", format!("must be between 0 and 180 degrees, not {fov}")));
+        return Err(obj.param_error(
+            "fov",
+            format!("must be between 0 and 180 degrees, not {fov}"),
+        ));
     }
     Ok((fov, axis))
 }
@@ -652,14 +699,14 @@ fn rfilter(obj: &Object) -> Result<Filter, SceneError> {
         "box" => Filter::Box,
         "tent" => {
             let radius = obj.float_or("radius", 1.0)?;
-            if !(radius > 0.0) {
+            if !is_positive(radius) {
                 return Err(obj.param_error("radius", "must be positive"));
             }
             Filter::Tent { radius }
         }
         "gaussian" => {
             let stddev = obj.float_or("stddev", 0.5)?;
-            if !(stddev > 0.0) {
+            if !is_positive(stddev) {
                 return Err(obj.param_error("stddev", "must be positive"));
             }
             Filter::Gaussian { stddev }

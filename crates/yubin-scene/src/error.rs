@@ -54,12 +54,14 @@ pub enum SceneError {
         from: Option<Location>,
     },
     /// An I/O error on a file.
-    #[error("{}: {source}", .path.display())]
+    // The I/O error is part of the message, not a separate cause, so that
+    // printing the error chain doesn't say it twice.
+    #[error("{}: {error}", .path.display())]
     Io {
         /// The file.
         path: PathBuf,
         /// The underlying error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// A problem with a file as a whole (an image that cannot be decoded, say).
     #[error("{}: {msg}", .path.display())]

@@ -15,3 +15,15 @@ pub mod xml;
 
 pub use build::{load_scene, load_scene_str, LoadedScene};
 pub use error::{Location, SceneError};
+
+/// Where tests find `../shared` (Mitsuba test data, assets): `$YUBIN_SHARED`
+/// or the `shared` directory beside the repository. `rel` is joined to it.
+#[cfg(test)]
+pub(crate) fn shared_path(rel: &str) -> std::path::PathBuf {
+    let root = std::env::var_os("YUBIN_SHARED")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| {
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared")
+        });
+    root.join(rel)
+}

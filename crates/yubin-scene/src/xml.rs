@@ -766,7 +766,7 @@ fn unknown_tag_message(tag: &str, expected: &str) -> String {
 fn read_text(path: &Path) -> Result<String, SceneError> {
     std::fs::read_to_string(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })
 }
 
@@ -987,9 +987,6 @@ fn to_snake_case(name: &str) -> String {
 mod tests {
     use super::*;
     use glam::{DVec4, Vec3};
-
-    const SHARED_SCENES: &str = "/work/shared/mitsuba-data/tests/scenes";
-    const SHARED_CORNELL: &str = "/work/shared/assets/cornell-box-bitterli/scene_v3.xml";
 
     fn parse(text: &str) -> Result<SceneDesc, SceneError> {
         parse_str(text, Path::new("scene.xml"), &[])
@@ -1552,9 +1549,10 @@ mod tests {
 
     #[test]
     fn parses_every_shared_mitsuba_test_scene() {
-        let dir = Path::new(SHARED_SCENES);
+        let shared_scenes = crate::shared_path("mitsuba-data/tests/scenes");
+        let dir = shared_scenes.as_path();
         if !dir.is_dir() {
-            println!("skipped: {SHARED_SCENES} is not present");
+            println!("skipped: {} is not present", dir.display());
             return;
         }
         let mut files = Vec::new();
@@ -1589,9 +1587,10 @@ mod tests {
 
     #[test]
     fn parses_the_shared_bitterli_cornell_box() {
-        let path = Path::new(SHARED_CORNELL);
+        let shared_cornell = crate::shared_path("assets/cornell-box-bitterli/scene_v3.xml");
+        let path = shared_cornell.as_path();
         if !path.is_file() {
-            println!("skipped: {SHARED_CORNELL} is not present");
+            println!("skipped: {} is not present", path.display());
             return;
         }
         let desc = parse_file(path, &[]).unwrap();

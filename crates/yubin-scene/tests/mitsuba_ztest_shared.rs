@@ -11,30 +11,49 @@ use yubin_core::testing::ztest::z_test;
 use yubin_scene::image_io::{read_image, ColorHandling};
 
 fn z_test_scene(test: &str, scene: &str, reference: &str) {
-    let Some(shared) = shared_or_skip(test) else { return };
+    let Some(shared) = shared_or_skip(test) else {
+        return;
+    };
     let dir = shared.join("mitsuba-data/tests/scenes");
     let scene_path = dir.join(scene);
     let ref_mean = read_image(&dir.join(format!("{reference}.exr")), ColorHandling::Raw).unwrap();
-    let ref_var = read_image(&dir.join(format!("{reference}_var.exr")), ColorHandling::Raw).unwrap();
+    let ref_var = read_image(
+        &dir.join(format!("{reference}_var.exr")),
+        ColorHandling::Raw,
+    )
+    .unwrap();
     let pixels = ref_mean.width * ref_mean.height;
     let spp = (2_000_000 / pixels) as u32;
     let out = render_file(&scene_path, &[], spp, 0);
     let mean = out.image.select_channels(0..3);
-    assert_eq!((mean.width as usize, mean.height as usize), (ref_mean.width, ref_mean.height));
+    assert_eq!(
+        (mean.width as usize, mean.height as usize),
+        (ref_mean.width, ref_mean.height)
+    );
     let rgb = |img: &yubin_scene::image_io::Image| -> Vec<f32> {
-        img.data.chunks_exact(img.channels).flat_map(|p| [p[0], p[1], p[2]]).collect()
+        img.data
+            .chunks_exact(img.channels)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect()
     };
     let report = z_test(&mean.data, spp, &rgb(&ref_mean), &rgb(&ref_var), 0.01);
     println!("{scene}: {report:?}");
     assert!(report.passed, "{scene}: Z-test failed: {report:?}");
     // The test must be able to fail: a 3 % brighter image is rejected.
     let brighter: Vec<f32> = mean.data.iter().map(|v| v * 1.03).collect();
-    assert!(!z_test(&brighter, spp, &rgb(&ref_mean), &rgb(&ref_var), 0.01).passed, "{scene}: the Z-test cannot tell a 3 % bias");
+    assert!(
+        !z_test(&brighter, spp, &rgb(&ref_mean), &rgb(&ref_var), 0.01).passed,
+        "{scene}: the Z-test cannot tell a 3 % bias"
+    );
 }
 
 #[test]
 fn ztest_instancing_path_shared() {
-    z_test_scene("ztest_instancing_path_shared", "instancing/test_instancing_path.xml", "instancing/refs/test_instancing_ref_rgb");
+    z_test_scene(
+        "ztest_instancing_path_shared",
+        "instancing/test_instancing_path.xml",
+        "instancing/refs/test_instancing_ref_rgb",
+    );
 }
 
 #[test]

@@ -51,6 +51,7 @@ fn parse_define(s: &str) -> Result<(String, String), String> {
 pub fn run(args: RenderArgs) -> Result<()> {
     let t0 = Instant::now();
     let (loaded, output) = load(&args)?;
+    check_output_format(&output)?;
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
@@ -105,6 +106,22 @@ pub fn run(args: RenderArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Fails before rendering, not after, when the output can't be written
+/// in the format its extension names.
+fn check_output_format(path: &Path) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("exr" | "png") => Ok(()),
+        _ => bail!(
+            "{}: unsupported output format (supported extensions: .exr, .png)",
+            path.display()
+        ),
+    }
 }
 
 fn load(args: &RenderArgs) -> Result<(LoadedScene, PathBuf)> {

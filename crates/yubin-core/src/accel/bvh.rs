@@ -12,7 +12,11 @@ const MAX_LEAF: usize = 4;
 const INTERSECT_COST: f32 = 1.0;
 const TRAVERSAL_COST: f32 = 1.0;
 const PARALLEL_THRESHOLD: usize = 4096;
-const STACK: usize = 64;
+const STACK: usize = 128;
+/// Below this depth, splits are forced to the median so that no tree is
+/// deeper than the traversal stack (SAH can make long chains of lopsided
+/// splits on adversarial input).
+const MAX_SAH_DEPTH: usize = 80;
 
 #[derive(Clone, Copy, Debug)]
 struct Node {
@@ -20,9 +24,9 @@ struct Node {
     /// Leaves: first index into `prims`. Inner nodes: index of the second
     /// child (the first child is the next node).
     offset: u32,
-    /// Leaves: primitive count (> 0). Inner nodes: 0, plus the split axis
-    /// in the upper bits.
+    /// Leaves: primitive count (> 0). Inner nodes: 0.
     count: u16,
+    /// Inner nodes: the split axis, for front-to-back traversal.
     axis: u16,
 }
 
@@ -71,7 +75,7 @@ impl Bvh {
         if prims.is_empty() {
             return Self::default();
         }
-        let root = build_recursive(&mut prims, 0);
+        let root = build_recursive(&mut prims, 0, 0);
         let mut bvh = Self {
             nodes: Vec::with_capacity(2 * prims.len() / MAX_LEAF + 1),
             prims: prims.iter().map(|p| p.index).collect(),
@@ -211,7 +215,7 @@ impl Bvh {
     }
 }
 
-fn build_recursive(prims: &mut [BuildPrim], start: usize) -> BuildNode {
+fn build_recursive(prims: &mut [BuildPrim], start: usize, depth: usize) -> BuildNode {
     let bounds = prims.iter().fold(Bounds3::EMPTY, |b, p| b.union(p.bounds));
     let leaf = BuildNode::Leaf {
         bounds,
@@ -224,19 +228,24 @@ fn build_recursive(prims: &mut [BuildPrim], start: usize) -> BuildNode {
     let centroids = prims
         .iter()
         .fold(Bounds3::EMPTY, |b, p| b.union_point(p.centroid));
-    let Some((axis, mid)) = choose_split(prims, &bounds, &centroids) else {
+    let split = if depth < MAX_SAH_DEPTH {
+        choose_split(prims, &bounds, &centroids)
+    } else {
+        split_in_middle(prims, centroids.max_axis())
+    };
+    let Some((axis, mid)) = split else {
         return leaf;
     };
     let (left, right) = prims.split_at_mut(mid);
     let children = if left.len() + right.len() > PARALLEL_THRESHOLD {
         rayon::join(
-            || build_recursive(left, start),
-            || build_recursive(right, start + mid),
+            || build_recursive(left, start, depth + 1),
+            || build_recursive(right, start + mid, depth + 1),
         )
     } else {
         (
-            build_recursive(left, start),
-            build_recursive(right, start + mid),
+            build_recursive(left, start, depth + 1),
+            build_recursive(right, start + mid, depth + 1),
         )
     };
     BuildNode::Inner {

@@ -29,9 +29,15 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
         Vec::new()
     }
 
+    /// Number of extra layers (what `extra_layers().len()` is, without
+    /// allocating: it is asked per sample).
+    fn extra_layer_count(&self) -> usize {
+        0
+    }
+
     /// Values per sample: 3 per layer, RGB first.
     fn channel_count(&self) -> usize {
-        3 * (1 + self.extra_layers().len())
+        3 * (1 + self.extra_layer_count())
     }
 
     /// Radiance arriving along `ray`.

@@ -32,6 +32,10 @@ impl Integrator for MomentIntegrator {
         layers
     }
 
+    fn extra_layer_count(&self) -> usize {
+        self.nested.extra_layer_count() + 1
+    }
+
     fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         self.nested.li(scene, ray, sampler)
     }

@@ -83,7 +83,7 @@ impl Integrator for PathIntegrator {
             depth += 1;
             if depth >= self.rr_depth {
                 let q = (beta.max_element() * eta2).min(0.95);
-                if !(sampler.next_1d() < q) {
+                if sampler.next_1d() >= q {
                     break;
                 }
                 beta /= q;

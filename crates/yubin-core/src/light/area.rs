@@ -40,7 +40,7 @@ impl EmitterModel for AreaLight {
         let s = shape.sample_direction(ctx.meshes, ref_p, u);
         let delta = s.p - ref_p;
         let dist = delta.length();
-        if !(s.pdf > 0.0) || dist == 0.0 || !s.pdf.is_finite() {
+        if s.pdf.is_nan() || s.pdf <= 0.0 || dist == 0.0 || !s.pdf.is_finite() {
             return None;
         }
         let wi = delta / dist;

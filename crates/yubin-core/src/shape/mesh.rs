@@ -41,10 +41,9 @@ pub struct TriangleMesh {
 }
 
 /// Errors in mesh data given to [`TriangleMesh::new`].
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub enum MeshError {
     /// A triangle refers to a vertex that doesn't exist.
-    #[error("triangle {triangle} uses vertex {index}, but the mesh has {count} vertices")]
     IndexOutOfRange {
         /// Triangle number.
         triangle: usize,
@@ -54,7 +53,6 @@ pub enum MeshError {
         count: usize,
     },
     /// An attribute array's length differs from the vertex count.
-    #[error("{attribute} has {len} entries for {count} vertices")]
     AttributeLength {
         /// Which attribute.
         attribute: &'static str,
@@ -64,9 +62,35 @@ pub enum MeshError {
         count: usize,
     },
     /// The mesh has no triangles.
-    #[error("the mesh has no triangles")]
     Empty,
 }
+
+impl std::fmt::Display for MeshError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MeshError::IndexOutOfRange {
+                triangle,
+                index,
+                count,
+            } => {
+                write!(
+                    f,
+                    "triangle {triangle} uses vertex {index}, but the mesh has {count} vertices"
+                )
+            }
+            MeshError::AttributeLength {
+                attribute,
+                len,
+                count,
+            } => {
+                write!(f, "{attribute} has {len} entries for {count} vertices")
+            }
+            MeshError::Empty => write!(f, "the mesh has no triangles"),
+        }
+    }
+}
+
+impl std::error::Error for MeshError {}
 
 impl TriangleMesh {
     /// Validates and assembles a mesh. `normals` may be empty: then smooth

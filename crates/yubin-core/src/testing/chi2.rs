@@ -47,10 +47,10 @@ impl Default for Chi2Config {
 pub type DirectionDraw = Option<(Vec3, f32)>;
 
 /// Tests that `sample` draws directions with density `pdf`
-/// (solid angle). `sample` gets a random-number generator; every draw
-/// that returns `None` counts as lost mass, which the test also checks
-/// against the integral of `pdf`. Also checks that each drawn sample's
-/// claimed density agrees with `pdf` at that direction.
+/// (solid angle). `sample` gets a random-number generator; a draw that
+/// returns `None` is lost mass, which shows up in Pearson's sum as missing
+/// counts wherever `pdf` expected them. Also checks that each drawn
+/// sample's claimed density agrees with `pdf` at that direction.
 pub fn chi2_directions(
     cfg: &Chi2Config,
     mut sample: impl FnMut(&mut Pcg32) -> DirectionDraw,
@@ -175,8 +175,9 @@ fn integrate_cell(
     )
 }
 
-/// Pearson's test with pooling of cells whose expected count is below 5.
-/// Cells with zero expectation but observed samples fail outright.
+/// Pearson's test with pooling of cells whose expected count is below 5
+/// (including cells with zero expectation: samples there inflate the
+/// pooled cell's statistic and fail the test).
 fn chi2_test(observed: &[f64], expected: &[f64], alpha: f64) -> Result<(), String> {
     let mut order: Vec<usize> = (0..observed.len()).collect();
     order.sort_by(|&a, &b| expected[a].total_cmp(&expected[b]));

@@ -57,7 +57,7 @@ use crate::error::{Location, SceneError};
 pub fn load_obj(path: &Path, flip_tex_coords: bool) -> Result<MeshData, SceneError> {
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })?;
     let file = Arc::new(path.to_path_buf());
     let text = decode_utf8(&bytes, &file)?;
@@ -575,8 +575,8 @@ mod tests {
 
     #[test]
     fn shared_mitsuba_obj_files_load() {
-        let dir = Path::new("/work/shared/mitsuba-data/tests/obj");
-        let Ok(entries) = std::fs::read_dir(dir) else {
+        let dir = crate::shared_path("mitsuba-data/tests/obj");
+        let Ok(entries) = std::fs::read_dir(&dir) else {
             println!("skipped: {} not found", dir.display());
             return;
         };

@@ -66,7 +66,7 @@ const FACE_INDEX_NAMES: [&str; 2] = ["vertex_indices", "vertex_index"];
 pub fn load_ply(path: &Path) -> Result<MeshData, SceneError> {
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })?;
     let file = Arc::new(path.to_path_buf());
     check_header_numbers(&bytes, &file)?;
@@ -657,8 +657,8 @@ end_header
 
     #[test]
     fn shared_mitsuba_ply_files_load() {
-        let dir = Path::new("/work/shared/mitsuba-data/tests/ply");
-        let Ok(entries) = std::fs::read_dir(dir) else {
+        let dir = crate::shared_path("mitsuba-data/tests/ply");
+        let Ok(entries) = std::fs::read_dir(&dir) else {
             println!("skipped: {} not found", dir.display());
             return;
         };
@@ -682,13 +682,13 @@ end_header
 
     #[test]
     fn shared_bunny_loads_with_the_right_counts() {
-        let path = Path::new("/work/shared/mitsuba-data/common/meshes/bunny.ply");
+        let path = crate::shared_path("mitsuba-data/common/meshes/bunny.ply");
         if !path.exists() {
             println!("skipped: {} not found", path.display());
             return;
         }
         let start = std::time::Instant::now();
-        let mesh = load_ply(path).unwrap();
+        let mesh = load_ply(&path).unwrap();
         println!("bunny.ply loaded in {:?}", start.elapsed());
         assert_eq!(mesh.positions.len(), 35947);
         assert_eq!(mesh.indices.len(), 69451);

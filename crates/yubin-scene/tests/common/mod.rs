@@ -24,5 +24,10 @@ pub fn shared_or_skip(test: &str) -> Option<PathBuf> {
 /// Loads and renders a scene file at `spp` with `seed`.
 pub fn render_file(path: &Path, defines: &[(String, String)], spp: u32, seed: u32) -> RenderOutput {
     let loaded = load_scene(path, defines).unwrap_or_else(|e| panic!("{e}"));
-    render(&loaded.scene, loaded.integrator.as_ref(), &RenderSettings { spp, seed }, &|_| {})
+    render(
+        &loaded.scene,
+        loaded.integrator.as_ref(),
+        &RenderSettings { spp, seed },
+        &|_| {},
+    )
 }

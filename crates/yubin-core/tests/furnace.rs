@@ -1,0 +1,135 @@
+//! White-furnace and analytic scenes whose answer is known.
+//!
+//! A convex diffuse object inside a uniform environment of radiance 1
+//! reflects ρ·1 in every direction (each reflected ray escapes to the
+//! environment), so an albedo-1 sphere vanishes into the background at any
+//! path depth and an albedo-ρ sphere renders exactly ρ.
+
+use glam::{Affine3A, Vec3};
+use yubin_core::bsdf::{Bsdf, Diffuse};
+use yubin_core::camera::{Camera, FovAxis, Perspective};
+use yubin_core::film::Film;
+use yubin_core::filter::Filter;
+use yubin_core::integrator::{DirectIntegrator, Integrator, PathIntegrator};
+use yubin_core::light::{ConstantLight, Emitter};
+use yubin_core::render::{render, RenderSettings};
+use yubin_core::sampler::{Independent, Sampler};
+use yubin_core::shape::{Shape, Sphere};
+use yubin_core::{Rgb, Scene, SceneBuilder};
+
+const RES: u32 = 16;
+
+fn furnace(albedo: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let bsdf = b.add_bsdf(Bsdf::Diffuse(Diffuse {
+        reflectance: Rgb::splat(albedo),
+    }));
+    b.add_shape(
+        Shape::Sphere(Sphere::new(Vec3::ZERO, 1.0, false)),
+        Some(bsdf),
+        None,
+    )
+    .unwrap();
+    b.add_emitter(Emitter::Constant(ConstantLight { radiance: Rgb::ONE }));
+    let eye = Affine3A::look_at_rh(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y).inverse();
+    // look_at_rh looks down -z; Mitsuba cameras look down +z with +x left.
+    let to_world = eye * Affine3A::from_scale(Vec3::new(-1.0, 1.0, -1.0));
+    b.camera(Camera::Perspective(Perspective::new(
+        to_world,
+        40.0,
+        FovAxis::X,
+        RES,
+        RES,
+        0.01,
+        100.0,
+    )));
+    b.film(Film::new(RES, RES, Filter::Box));
+    b.sampler(Sampler::Independent(Independent { sample_count: 64 }));
+    b.build().unwrap()
+}
+
+/// Renders and returns every pixel's RGB.
+fn pixels(scene: &Scene, integrator: &dyn Integrator, spp: u32) -> Vec<Rgb> {
+    let out = render(scene, integrator, &RenderSettings { spp, seed: 7 }, &|_| {});
+    out.image
+        .data
+        .chunks_exact(3)
+        .map(|p| Rgb::new(p[0], p[1], p[2]))
+        .collect()
+}
+
+fn assert_uniform(px: &[Rgb], expected: f32, tol_mean: f32, tol_pixel: f32, what: &str) {
+    let mean = px.iter().copied().sum::<Rgb>() / px.len() as f32;
+    assert!(
+        (mean - Rgb::splat(expected)).abs().max_element() < tol_mean,
+        "{what}: mean {mean}, expected {expected}"
+    );
+    for (i, p) in px.iter().enumerate() {
+        assert!(
+            (*p - Rgb::splat(expected)).abs().max_element() < tol_pixel,
+            "{what}: pixel {i} is {p}, expected {expected}"
+        );
+    }
+}
+
+#[test]
+fn white_furnace_path_tracer_renders_one_everywhere() {
+    let scene = furnace(1.0);
+    let path = PathIntegrator {
+        max_depth: 64,
+        ..Default::default()
+    };
+    assert_uniform(
+        &pixels(&scene, &path, 256),
+        1.0,
+        0.005,
+        0.08,
+        "path, albedo 1",
+    );
+}
+
+#[test]
+fn grey_furnace_matches_albedo() {
+    // Background pixels see the environment (1), sphere pixels see ρ: check
+    // the sphere's centre region only.
+    let scene = furnace(0.5);
+    let path = PathIntegrator {
+        max_depth: 64,
+        ..Default::default()
+    };
+    let px = pixels(&scene, &path, 256);
+    let centre: Vec<Rgb> = (6..10)
+        .flat_map(|y| (6..10).map(move |x| (y * RES + x) as usize))
+        .map(|i| px[i])
+        .collect();
+    assert_uniform(&centre, 0.5, 0.01, 0.05, "path, albedo 0.5");
+}
+
+#[test]
+fn white_furnace_direct_integrator() {
+    // Direct lighting of a convex object is the whole answer.
+    let scene = furnace(1.0);
+    assert_uniform(
+        &pixels(&scene, &DirectIntegrator::default(), 256),
+        1.0,
+        0.005,
+        0.08,
+        "direct, albedo 1",
+    );
+}
+
+#[test]
+fn furnace_can_fail() {
+    // A too-bright BSDF must be caught by the same check.
+    let scene = furnace(1.1);
+    let px = pixels(
+        &scene,
+        &PathIntegrator {
+            max_depth: 2,
+            ..Default::default()
+        },
+        64,
+    );
+    let mean = px.iter().copied().sum::<Rgb>() / px.len() as f32;
+    assert!(mean.x > 1.02, "{mean}");
+}

@@ -1,0 +1,52 @@
+//! The same seed gives a bit-identical image on 1, 2 and 4 threads, and a
+//! different seed gives a different one.
+
+use std::path::Path;
+use yubin_core::render::{render, RenderSettings};
+use yubin_scene::load_scene;
+
+fn render_with_threads(threads: usize, seed: u32, sampler: &str) -> Vec<f32> {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.xml");
+    let defines = [
+        ("resx".to_string(), "40".to_string()),
+        ("resy".to_string(), "24".to_string()),
+    ];
+    let mut loaded = load_scene(&scene, &defines).unwrap();
+    if sampler == "sobol" {
+        loaded.scene.sampler =
+            yubin_core::sampler::Sampler::Sobol(yubin_core::sampler::Sobol { sample_count: 4 });
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let out = pool.install(|| {
+        render(
+            &loaded.scene,
+            loaded.integrator.as_ref(),
+            &RenderSettings { spp: 4, seed },
+            &|_| {},
+        )
+    });
+    out.image.data
+}
+
+#[test]
+fn same_seed_same_image_on_any_thread_count() {
+    for sampler in ["independent", "sobol"] {
+        let one = render_with_threads(1, 3, sampler);
+        for threads in [2, 4] {
+            let many = render_with_threads(threads, 3, sampler);
+            let identical = one
+                .iter()
+                .zip(&many)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(identical, "{sampler}: 1 and {threads} threads differ");
+        }
+        assert_ne!(
+            one,
+            render_with_threads(2, 4, sampler),
+            "{sampler}: the seed must change the image"
+        );
+    }
+}

@@ -1,0 +1,374 @@
+//! Bad input to the `yubin` binary: every case must fail cleanly.
+//!
+//! Each test writes its input into a fresh directory, runs the real binary
+//! there and checks that it
+//!
+//! - exits with code 1 (clap's usage errors: 2),
+//! - names the file and, where there is one, the line (`scene.xml:7:`),
+//! - says what is wrong (the misspelt parameter, the unknown type, ...),
+//! - does not panic, and
+//! - leaves nothing behind: no output image and no temporary next to it.
+//!
+//! A positive control renders a valid scene, so that a binary which fails
+//! on everything cannot pass.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const YUBIN: &str = env!("CARGO_BIN_EXE_yubin");
+
+/// The output every render writes to, relative to the test's directory.
+const OUT: &str = "out.exr";
+
+/// A fresh, empty directory under the target's temporary folder, removed
+/// when dropped.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> Self {
+        let path = Path::new(env!("CARGO_TARGET_TMPDIR"))
+            .join("bad_input")
+            .join(format!("{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&path);
+        std::fs::create_dir_all(&path).expect("cannot create the test directory");
+        Self(path)
+    }
+
+    fn path(&self) -> &Path {
+        &self.0
+    }
+
+    fn write(&self, name: &str, contents: impl AsRef<[u8]>) {
+        std::fs::write(self.0.join(name), contents).expect("cannot write a test input");
+    }
+
+    /// The names of the files in the directory, hidden ones included.
+    fn listing(&self) -> BTreeSet<String> {
+        std::fs::read_dir(&self.0)
+            .expect("cannot list the test directory")
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect()
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Runs `yubin ARGS` in `dir`.
+fn yubin(dir: &TempDir, args: &[&str]) -> Output {
+    Command::new(YUBIN)
+        .args(args)
+        .current_dir(dir.path())
+        .env_remove("RUST_BACKTRACE")
+        .output()
+        .expect("cannot run the yubin binary")
+}
+
+/// Runs `yubin ARGS` in `dir`, expects it to fail with `code` and to leave
+/// the directory as it was, and returns its stderr.
+fn expect_failure(dir: &TempDir, args: &[&str], code: i32) -> String {
+    let before = dir.listing();
+    let out = yubin(dir, args);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let context = format!("yubin {}\nstderr:\n{stderr}", args.join(" "));
+    assert_eq!(out.status.code(), Some(code), "exit status of {context}");
+    assert!(!stderr.contains("panicked"), "panic in {context}");
+    assert!(
+        stderr.trim_start().starts_with("error"),
+        "no error message in {context}"
+    );
+    assert_eq!(dir.listing(), before, "files left behind by {context}");
+    assert!(
+        !dir.path().join(OUT).exists(),
+        "output written by {context}"
+    );
+    stderr
+}
+
+/// Asserts that `stderr` contains every one of `needles`.
+fn assert_mentions(stderr: &str, needles: &[&str]) {
+    for needle in needles {
+        assert!(
+            stderr.contains(needle),
+            "stderr does not mention {needle:?}:\n{stderr}"
+        );
+    }
+}
+
+/// The 1-based number of the first line of `text` that contains `needle`.
+fn line_of(text: &str, needle: &str) -> usize {
+    text.lines()
+        .position(|l| l.contains(needle))
+        .unwrap_or_else(|| panic!("{needle:?} is not in the scene"))
+        + 1
+}
+
+/// A scene of an 8x8 film at 1 spp, a constant sky, and `body`.
+fn scene(body: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+	<sensor type="perspective">
+		<float name="fov" value="40"/>
+		<transform name="to_world">
+			<lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/>
+		</transform>
+		<sampler type="independent">
+			<integer name="sample_count" value="1"/>
+		</sampler>
+		<film type="hdrfilm">
+			<integer name="width" value="8"/>
+			<integer name="height" value="8"/>
+		</film>
+	</sensor>
+	<emitter type="constant"/>
+{body}
+</scene>
+"#
+    )
+}
+
+/// A diffuse sphere, the body of the valid scene.
+const SPHERE: &str = r#"	<shape type="sphere">
+		<bsdf type="diffuse">
+			<rgb name="reflectance" value="0.5, 0.5, 0.5"/>
+		</bsdf>
+	</shape>"#;
+
+/// Renders `xml`, written as scene.xml in `dir`, expecting failure with
+/// exit code 1; returns stderr.
+fn render_fails(dir: &TempDir, xml: &str) -> String {
+    dir.write("scene.xml", xml);
+    expect_failure(dir, &["render", "scene.xml", "-o", OUT, "--quiet"], 1)
+}
+
+/// Renders `scene.xml` in `dir` and expects an EXR at [`OUT`] and nothing
+/// else new.
+fn render_succeeds(dir: &TempDir) {
+    let before = dir.listing();
+    let out = yubin(dir, &["render", "scene.xml", "-o", OUT, "--quiet"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "render failed: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let exr = std::fs::read(dir.path().join(OUT)).expect("no output image");
+    assert!(
+        exr.starts_with(&[0x76, 0x2f, 0x31, 0x01]),
+        "the output is not an OpenEXR file"
+    );
+    let mut expected = before;
+    expected.insert(OUT.to_string());
+    assert_eq!(dir.listing(), expected, "unexpected files after a render");
+}
+
+#[test]
+fn valid_scene_renders() {
+    let dir = TempDir::new("valid_scene_renders");
+    dir.write("scene.xml", scene(SPHERE));
+    render_succeeds(&dir);
+}
+
+#[test]
+fn malformed_xml_names_the_line() {
+    let dir = TempDir::new("malformed_xml_names_the_line");
+    // The diffuse BSDF is never closed: the parser finds out at the
+    // </shape> that follows it.
+    let body = "\t<shape type=\"sphere\">\n\t\t<bsdf type=\"diffuse\">\n\t</shape>";
+    let xml = scene(body);
+    let stderr = render_fails(&dir, &xml);
+    let open = line_of(&xml, "<bsdf type=\"diffuse\">");
+    let close = line_of(&xml, "</shape>");
+    assert!(
+        stderr.contains(&format!("scene.xml:{open}:"))
+            || stderr.contains(&format!("scene.xml:{close}:")),
+        "neither line {open} nor line {close} is named:\n{stderr}"
+    );
+    assert_mentions(&stderr, &["bsdf"]);
+}
+
+#[test]
+fn unknown_plugin_type_names_the_line_and_type() {
+    let dir = TempDir::new("unknown_plugin_type");
+    let xml = scene(&SPHERE.replace("\"diffuse\"", "\"difuse\""));
+    let stderr = render_fails(&dir, &xml);
+    let line = line_of(&xml, "difuse");
+    assert_mentions(&stderr, &[&format!("scene.xml:{line}:"), "\"difuse\""]);
+}
+
+#[test]
+fn misspelt_parameter_names_the_line_and_parameter() {
+    let dir = TempDir::new("misspelt_parameter");
+    let xml = scene(&SPHERE.replace("reflectance", "reflectanse"));
+    let stderr = render_fails(&dir, &xml);
+    let line = line_of(&xml, "reflectanse");
+    assert_mentions(
+        &stderr,
+        &[
+            &format!("scene.xml:{line}:"),
+            "unknown parameter \"reflectanse\" for bsdf \"diffuse\"",
+        ],
+    );
+}
+
+#[test]
+fn wrong_parameter_type_names_the_line_and_parameter() {
+    let dir = TempDir::new("wrong_parameter_type");
+    let xml = scene(SPHERE).replace(
+        "<float name=\"fov\" value=\"40\"/>",
+        "<string name=\"fov\" value=\"abc\"/>",
+    );
+    let stderr = render_fails(&dir, &xml);
+    let line = line_of(&xml, "name=\"fov\"");
+    assert_mentions(&stderr, &[&format!("scene.xml:{line}:"), "fov", "float"]);
+}
+
+#[test]
+fn missing_mesh_file_names_it_and_the_searched_paths() {
+    let dir = TempDir::new("missing_mesh_file");
+    let body =
+        "\t<shape type=\"obj\">\n\t\t<string name=\"filename\" value=\"nope.obj\"/>\n\t</shape>";
+    let xml = scene(body);
+    let stderr = render_fails(&dir, &xml);
+    let shape = line_of(&xml, "type=\"obj\"");
+    let filename = line_of(&xml, "nope.obj");
+    assert!(
+        stderr.contains(&format!("scene.xml:{shape}:"))
+            || stderr.contains(&format!("scene.xml:{filename}:")),
+        "the line of the reference is not named:\n{stderr}"
+    );
+    assert_mentions(&stderr, &["\"nope.obj\"", "searched"]);
+    // The searched paths: at least the one next to the scene.
+    let searched = stderr.split("searched").nth(1).expect("no searched paths");
+    assert!(
+        searched.contains("nope.obj"),
+        "no searched path in:\n{stderr}"
+    );
+}
+
+#[test]
+fn missing_scene_file_is_named() {
+    let dir = TempDir::new("missing_scene_file");
+    let stderr = expect_failure(
+        &dir,
+        &["render", "does-not-exist.xml", "-o", OUT, "--quiet"],
+        1,
+    );
+    assert_mentions(&stderr, &["does-not-exist.xml"]);
+    // Without -o, the default output name must not appear either.
+    let stderr = expect_failure(&dir, &["render", "does-not-exist.xml", "--quiet"], 1);
+    assert_mentions(&stderr, &["does-not-exist.xml"]);
+}
+
+/// A little-endian binary PLY of `n` triangles in the z = 0 plane, and
+/// the length of its header.
+fn binary_ply(n: u32) -> (Vec<u8>, usize) {
+    let header = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\n\
+         property float x\nproperty float y\nproperty float z\n\
+         element face {n}\nproperty list uchar int vertex_indices\nend_header\n",
+        3 * n
+    );
+    let mut out = header.into_bytes();
+    let header_len = out.len();
+    for i in 0..n {
+        let x = i as f32 * 0.3 - 0.5;
+        for [px, py] in [[x, -0.5], [x + 0.25, -0.5], [x, 0.5]] {
+            for v in [px, py, 0.0f32] {
+                out.extend(v.to_le_bytes());
+            }
+        }
+    }
+    for i in 0..n as i32 {
+        out.push(3);
+        for k in 0..3 {
+            out.extend((3 * i + k).to_le_bytes());
+        }
+    }
+    (out, header_len)
+}
+
+#[test]
+fn truncated_binary_ply_is_named() {
+    let dir = TempDir::new("truncated_binary_ply");
+    let body =
+        "\t<shape type=\"ply\">\n\t\t<string name=\"filename\" value=\"mesh.ply\"/>\n\t</shape>";
+    dir.write("scene.xml", scene(body));
+    let n = 4;
+    let (ply, header_len) = binary_ply(n);
+    // The whole file loads: the failure below is the truncation alone.
+    dir.write("mesh.ply", &ply);
+    render_succeeds(&dir);
+    std::fs::remove_file(dir.path().join(OUT)).unwrap();
+    // Cut in the middle of the third face.
+    let faces_start = header_len + 3 * n as usize * 12;
+    let cut = faces_start + 2 * 13 + 6;
+    assert!(cut < ply.len());
+    dir.write("mesh.ply", &ply[..cut]);
+    let stderr = expect_failure(&dir, &["render", "scene.xml", "-o", OUT, "--quiet"], 1);
+    assert_mentions(&stderr, &["mesh.ply", "truncated"]);
+}
+
+#[test]
+fn obj_face_index_out_of_range_names_the_file_and_line() {
+    let dir = TempDir::new("obj_face_index_out_of_range");
+    let obj = "# a triangle and a bad face\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n";
+    dir.write("bad.obj", obj);
+    let body =
+        "\t<shape type=\"obj\">\n\t\t<string name=\"filename\" value=\"bad.obj\"/>\n\t</shape>";
+    let stderr = render_fails(&dir, &scene(body));
+    let line = line_of(obj, "f 1 2 7");
+    assert_mentions(&stderr, &[&format!("bad.obj:{line}:"), "7"]);
+}
+
+#[test]
+fn undefined_variable_names_the_line() {
+    let dir = TempDir::new("undefined_variable");
+    let xml = scene(&SPHERE.replace("0.5, 0.5, 0.5", "$albedo"));
+    let stderr = render_fails(&dir, &xml);
+    let line = line_of(&xml, "$albedo");
+    assert_mentions(&stderr, &[&format!("scene.xml:{line}:"), "albedo"]);
+}
+
+#[test]
+fn malformed_define_is_a_usage_error() {
+    let dir = TempDir::new("malformed_define");
+    dir.write("scene.xml", scene(SPHERE));
+    // clap reports a bad argument with its usage-error code, 2.
+    let stderr = expect_failure(
+        &dir,
+        &["render", "scene.xml", "-o", OUT, "--quiet", "-D", "novalue"],
+        2,
+    );
+    assert_mentions(&stderr, &["novalue"]);
+}
+
+#[test]
+fn unsupported_output_extension_is_named() {
+    let dir = TempDir::new("unsupported_output_extension");
+    dir.write("scene.xml", scene(SPHERE));
+    let stderr = expect_failure(
+        &dir,
+        &["render", "scene.xml", "-o", "out.tiff", "--quiet"],
+        1,
+    );
+    assert_mentions(&stderr, &["out.tiff"]);
+    let lower = stderr.to_lowercase();
+    assert!(
+        lower.contains("unsupported") || lower.contains("format") || lower.contains("extension"),
+        "the problem is not named:\n{stderr}"
+    );
+}
+
+#[test]
+fn compare_with_a_missing_file_names_it() {
+    let dir = TempDir::new("compare_missing_file");
+    dir.write("scene.xml", scene(SPHERE));
+    render_succeeds(&dir);
+    std::fs::rename(dir.path().join(OUT), dir.path().join("ref.exr")).unwrap();
+    let stderr = expect_failure(&dir, &["compare", "missing.exr", "ref.exr"], 1);
+    assert_mentions(&stderr, &["missing.exr"]);
+    let stderr = expect_failure(&dir, &["compare", "ref.exr", "missing.exr"], 1);
+    assert_mentions(&stderr, &["missing.exr"]);
+}
