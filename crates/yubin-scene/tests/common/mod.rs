@@ -1,4 +1,5 @@
-//! Helpers shared by the render tests.
+//! Helpers shared by the render tests (each test binary uses some of them).
+#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 use yubin_core::render::{render, RenderOutput, RenderSettings};
