@@ -39,6 +39,16 @@ impl TwoSided {
             (self.back, true)
         }
     }
+
+    /// The BSDF for `wo`'s side and the directions as that BSDF sees them
+    /// (mirrored to its front when `wo` is below the surface).
+    #[inline]
+    fn facing<'t>(&self, table: &'t [Bsdf], wo: Vec3, wi: Vec3) -> (&'t Bsdf, Vec3, Vec3) {
+        match self.side(wo) {
+            (id, false) => (&table[id as usize], wo, wi),
+            (id, true) => (&table[id as usize], mirror(wo), mirror(wi)),
+        }
+    }
 }
 
 impl BsdfModel for TwoSided {
@@ -79,13 +89,8 @@ impl BsdfModel for TwoSided {
         wo: Vec3,
         wi: Vec3,
     ) -> Rgb {
-        let (id, back) = self.side(wo);
-        let b = &table[id as usize];
-        if back {
-            b.eval(table, ctx, si, mirror(wo), mirror(wi))
-        } else {
-            b.eval(table, ctx, si, wo, wi)
-        }
+        let (b, wo, wi) = self.facing(table, wo, wi);
+        b.eval(table, ctx, si, wo, wi)
     }
 
     #[inline]
@@ -97,13 +102,8 @@ impl BsdfModel for TwoSided {
         wo: Vec3,
         wi: Vec3,
     ) -> f32 {
-        let (id, back) = self.side(wo);
-        let b = &table[id as usize];
-        if back {
-            b.pdf(table, ctx, si, mirror(wo), mirror(wi))
-        } else {
-            b.pdf(table, ctx, si, wo, wi)
-        }
+        let (b, wo, wi) = self.facing(table, wo, wi);
+        b.pdf(table, ctx, si, wo, wi)
     }
 }
 

@@ -15,7 +15,7 @@
 //! In object space the cylinder is x² + y² = 1, 0 ≤ z ≤ 1; uv = (φ/2π, z).
 //! The builder folds p0, p1 and radius into `to_world`.
 
-use super::{make_interaction, PositionSample, PrimHit, ShapeModel, TriangleMesh};
+use super::{make_interaction, world_normal, PositionSample, PrimHit, ShapeModel, TriangleMesh};
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
 use glam::{Vec2, Vec3};
@@ -101,13 +101,11 @@ impl ShapeModel for Cylinder {
         let (sin_p, cos_p) = phi.sin_cos();
         let on_surface = Vec3::new(cos_p, sin_p, local.z.clamp(0.0, 1.0));
         let p = self.to_world.point(on_surface);
-        let mut n = self
-            .to_world
-            .normal(Vec3::new(cos_p, sin_p, 0.0))
-            .normalize();
-        if self.flip_normals {
-            n = -n;
-        }
+        let n = world_normal(
+            &self.to_world,
+            Vec3::new(cos_p, sin_p, 0.0),
+            self.flip_normals,
+        );
         let dpdu = self
             .to_world
             .vector(Vec3::new(-sin_p, cos_p, 0.0) * (2.0 * PI));
@@ -132,13 +130,11 @@ impl ShapeModel for Cylinder {
     fn sample_position(&self, meshes: &[TriangleMesh], u: Vec2) -> PositionSample {
         let phi = 2.0 * PI * u.y;
         let (sin_p, cos_p) = phi.sin_cos();
-        let mut n = self
-            .to_world
-            .normal(Vec3::new(cos_p, sin_p, 0.0))
-            .normalize();
-        if self.flip_normals {
-            n = -n;
-        }
+        let n = world_normal(
+            &self.to_world,
+            Vec3::new(cos_p, sin_p, 0.0),
+            self.flip_normals,
+        );
         PositionSample {
             p: self.to_world.point(Vec3::new(cos_p, sin_p, u.x)),
             n,

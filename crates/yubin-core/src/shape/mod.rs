@@ -24,7 +24,7 @@ pub use rectangle::Rectangle;
 pub use sphere::Sphere;
 
 use crate::interaction::SurfaceInteraction;
-use crate::math::{Bounds3, Ray};
+use crate::math::{Bounds3, Ray, Transform};
 use glam::{Vec2, Vec3};
 
 /// The result of intersecting one primitive: the distance and whatever
@@ -190,6 +190,37 @@ impl ShapeModel for Shape {
     fn pdf_direction(&self, meshes: &[TriangleMesh], ref_p: Vec3, p: Vec3, n: Vec3) -> f32 {
         dispatch!(self, s => s.pdf_direction(meshes, ref_p, p, n))
     }
+}
+
+/// Where `ray` meets the z = 0 plane of the object space of `to_world`:
+/// the ray parameter and the local (x, y), when inside the ray's interval.
+/// Shared by the planar shapes (`rectangle`, `disk`).
+#[inline]
+pub(crate) fn intersect_local_plane(to_world: &Transform, ray: &Ray) -> Option<(f32, Vec2)> {
+    let o = to_world.inv.transform_point3(ray.o);
+    let d = to_world.inv.transform_vector3(ray.d);
+    let t = -o.z / d.z;
+    (t > ray.t_min && t < ray.t_max).then(|| (t, Vec2::new(o.x + t * d.x, o.y + t * d.y)))
+}
+
+/// The world normal of object-space `n` under `to_world`, unit length,
+/// turned around for `flip_normals`.
+#[inline]
+pub(crate) fn world_normal(to_world: &Transform, n: Vec3, flip: bool) -> Vec3 {
+    let n = to_world.normal(n).normalize();
+    if flip {
+        -n
+    } else {
+        n
+    }
+}
+
+/// Bounds of the object-space square [-1, 1]² at z = 0 under `to_world`.
+pub(crate) fn unit_square_bounds(to_world: &Transform) -> Bounds3 {
+    Bounds3::from_points(
+        [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+            .map(|(x, y)| to_world.point(Vec3::new(x, y, 0.0))),
+    )
 }
 
 /// Builds the interaction of a hit on a surface given local geometry in

@@ -13,7 +13,10 @@
 //! uv = ((x + 1)/2, (y + 1)/2). Area sampling is uniform in object space,
 //! which an affine map keeps uniform.
 
-use super::{make_interaction, PositionSample, PrimHit, ShapeModel, TriangleMesh};
+use super::{
+    intersect_local_plane, make_interaction, unit_square_bounds, world_normal, PositionSample,
+    PrimHit, ShapeModel, TriangleMesh,
+};
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
 use glam::{Vec2, Vec3};
@@ -29,12 +32,7 @@ pub struct Rectangle {
 
 impl Rectangle {
     fn normal(&self) -> Vec3 {
-        let n = self.to_world.normal(Vec3::Z).normalize();
-        if self.flip_normals {
-            -n
-        } else {
-            n
-        }
+        world_normal(&self.to_world, Vec3::Z, self.flip_normals)
     }
 }
 
@@ -44,25 +42,13 @@ impl ShapeModel for Rectangle {
     }
 
     fn prim_bounds(&self, _: &[TriangleMesh], _: u32) -> Bounds3 {
-        Bounds3::from_points(
-            [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-                .map(|(x, y)| self.to_world.point(Vec3::new(x, y, 0.0))),
-        )
+        unit_square_bounds(&self.to_world)
     }
 
     #[inline]
     fn intersect(&self, _: &[TriangleMesh], _: u32, ray: &Ray) -> Option<PrimHit> {
-        let o = self.to_world.inv.transform_point3(ray.o);
-        let d = self.to_world.inv.transform_vector3(ray.d);
-        let t = -o.z / d.z;
-        if !(t > ray.t_min && t < ray.t_max) {
-            return None;
-        }
-        let (x, y) = (o.x + t * d.x, o.y + t * d.y);
-        (x.abs() <= 1.0 && y.abs() <= 1.0).then(|| PrimHit {
-            t,
-            uv: Vec2::new(x, y),
-        })
+        let (t, local) = intersect_local_plane(&self.to_world, ray)?;
+        (local.x.abs() <= 1.0 && local.y.abs() <= 1.0).then_some(PrimHit { t, uv: local })
     }
 
     fn interaction(
