@@ -101,6 +101,18 @@ impl Scene {
 
     /// Closest hit along `ray` within its interval.
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
+        let (r, h) = self.closest_hit(ray)?;
+        Some(self.interaction(ray, &r, h))
+    }
+
+    /// Distance, shape and primitive of the closest hit, without computing
+    /// the surface interaction (for ray-throughput benchmarks and tests).
+    pub fn intersect_distance(&self, ray: &Ray) -> Option<(f32, u32, u32)> {
+        self.closest_hit(ray)
+            .map(|(r, h)| (r.t_max, h.shape, h.prim))
+    }
+
+    fn closest_hit(&self, ray: &Ray) -> Option<(Ray, HitRecord)> {
         let mut r = *ray;
         let mut rec: Option<HitRecord> = None;
         self.groups[0]
@@ -129,7 +141,7 @@ impl Scene {
                     Some(hit.t)
                 }
             });
-        rec.map(|h| self.interaction(ray, &r, h))
+        rec.map(|h| (r, h))
     }
 
     fn closest_in_group(&self, group: u32, ray: &mut Ray) -> Option<(u32, u32, PrimHit)> {
