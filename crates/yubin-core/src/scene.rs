@@ -17,8 +17,9 @@ use crate::interaction::SurfaceInteraction;
 use crate::light::{AreaLight, Emitter, EmitterContext};
 use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
-use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh};
+use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, WatertightRay};
 use crate::Rgb;
+use glam::Vec3;
 
 /// What a shape is made of and whether it emits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -31,13 +32,25 @@ pub struct ShapeInfo {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Item {
-    Prim { shape: u32, prim: u32 },
+    /// A mesh triangle; its vertices are copied into the group's `tris`
+    /// (in BVH leaf order) so the hot loop reads them without indirection.
+    Triangle {
+        shape: u32,
+        prim: u32,
+    },
+    Prim {
+        shape: u32,
+        prim: u32,
+    },
     Instance(u32),
 }
 
 #[derive(Clone, Debug, Default)]
 struct Group {
+    /// Items in BVH leaf order.
     items: Vec<Item>,
+    /// Vertices of `Item::Triangle` items, parallel to `items`.
+    tris: Vec<[Vec3; 3]>,
     bvh: Bvh,
 }
 
@@ -114,48 +127,71 @@ impl Scene {
 
     fn closest_hit(&self, ray: &Ray) -> Option<(Ray, HitRecord)> {
         let mut r = *ray;
-        let mut rec: Option<HitRecord> = None;
-        self.groups[0]
-            .bvh
-            .closest(&mut r, |i, r| match self.groups[0].items[i as usize] {
-                Item::Prim { shape, prim } => {
-                    let hit = self.shapes[shape as usize].intersect(&self.meshes, prim, r)?;
-                    rec = Some(HitRecord {
-                        shape,
-                        prim,
-                        hit,
-                        instance: None,
-                    });
-                    Some(hit.t)
-                }
-                Item::Instance(inst) => {
-                    let instance = &self.instances[inst as usize];
-                    let mut local = to_local_ray(r, &instance.to_world);
-                    let (shape, prim, hit) = self.closest_in_group(instance.group, &mut local)?;
-                    rec = Some(HitRecord {
-                        shape,
-                        prim,
-                        hit,
-                        instance: Some(inst),
-                    });
-                    Some(hit.t)
-                }
-            });
-        rec.map(|h| (r, h))
+        let rec = self.closest_in_group(&self.groups[0], &mut r, None)?;
+        Some((r, rec))
     }
 
-    fn closest_in_group(&self, group: u32, ray: &mut Ray) -> Option<(u32, u32, PrimHit)> {
-        let g = &self.groups[group as usize];
-        let mut found = None;
-        g.bvh.closest(ray, |i, r| match g.items[i as usize] {
-            Item::Prim { shape, prim } => {
-                let hit = self.shapes[shape as usize].intersect(&self.meshes, prim, r)?;
-                found = Some((shape, prim, hit));
-                Some(hit.t)
-            }
-            Item::Instance(_) => None,
+    /// Closest hit among a group's items; `ray.t_max` shrinks to it.
+    /// `instance` is the instance the group is seen through, if any.
+    fn closest_in_group(
+        &self,
+        g: &Group,
+        ray: &mut Ray,
+        instance: Option<u32>,
+    ) -> Option<HitRecord> {
+        let wr = WatertightRay::new(ray);
+        let mut rec = None;
+        g.bvh.closest(ray, |i, r| {
+            let i = i as usize;
+            let (shape, prim, hit) = match g.items[i] {
+                Item::Triangle { shape, prim } => (shape, prim, wr.intersect(&g.tris[i], r.t_max)?),
+                Item::Prim { shape, prim } => (
+                    shape,
+                    prim,
+                    self.shapes[shape as usize].intersect(&self.meshes, prim, r)?,
+                ),
+                Item::Instance(inst) => {
+                    let placed = &self.instances[inst as usize];
+                    let mut local = to_local_ray(r, &placed.to_world);
+                    let h = self.closest_in_group(
+                        &self.groups[placed.group as usize],
+                        &mut local,
+                        Some(inst),
+                    )?;
+                    rec = Some(h);
+                    return Some(h.hit.t);
+                }
+            };
+            rec = Some(HitRecord {
+                shape,
+                prim,
+                hit,
+                instance,
+            });
+            Some(hit.t)
         });
-        found
+        rec
+    }
+
+    /// True when any item of the group blocks the ray.
+    fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
+        let wr = WatertightRay::new(ray);
+        g.bvh.any(ray, |i, r| {
+            let i = i as usize;
+            match g.items[i] {
+                Item::Triangle { .. } => wr.intersect(&g.tris[i], r.t_max).is_some(),
+                Item::Prim { shape, prim } => self.shapes[shape as usize]
+                    .intersect(&self.meshes, prim, r)
+                    .is_some(),
+                Item::Instance(inst) => {
+                    let placed = &self.instances[inst as usize];
+                    self.occluded_in_group(
+                        &self.groups[placed.group as usize],
+                        &to_local_ray(r, &placed.to_world),
+                    )
+                }
+            }
+        })
     }
 
     fn interaction(&self, ray: &Ray, closest: &Ray, h: HitRecord) -> SurfaceInteraction {
@@ -177,23 +213,7 @@ impl Scene {
 
     /// True when anything blocks `ray` within its interval.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let g0 = &self.groups[0];
-        g0.bvh.any(ray, |i, r| match g0.items[i as usize] {
-            Item::Prim { shape, prim } => self.shapes[shape as usize]
-                .intersect(&self.meshes, prim, r)
-                .is_some(),
-            Item::Instance(inst) => {
-                let instance = &self.instances[inst as usize];
-                let local = to_local_ray(r, &instance.to_world);
-                let g = &self.groups[instance.group as usize];
-                g.bvh.any(&local, |j, lr| match g.items[j as usize] {
-                    Item::Prim { shape, prim } => self.shapes[shape as usize]
-                        .intersect(&self.meshes, prim, lr)
-                        .is_some(),
-                    Item::Instance(_) => false,
-                })
-            }
-        })
+        self.occluded_in_group(&self.groups[0], ray)
     }
 
     /// The BSDF of a shape.
@@ -255,6 +275,17 @@ fn instance_to_world(local: &SurfaceInteraction, t: &Transform) -> SurfaceIntera
         dpdu,
         dpdv: t.vector(local.dpdv),
         ..*local
+    }
+}
+
+/// The vertices of a triangle item (zeros for other items).
+fn triangle_of(shapes: &[Shape], meshes: &[TriangleMesh], item: &Item) -> [Vec3; 3] {
+    match *item {
+        Item::Triangle { shape, prim } => match shapes[shape as usize] {
+            Shape::Mesh(m) => meshes[m.mesh as usize].triangle(prim as usize),
+            _ => [Vec3::ZERO; 3],
+        },
+        _ => [Vec3::ZERO; 3],
     }
 }
 
@@ -402,7 +433,14 @@ impl SceneBuilder {
         let prims = shape.prim_count(&self.meshes);
         self.shapes.push(shape);
         self.shape_info.push(ShapeInfo { bsdf, emitter });
-        self.groups[group as usize].extend((0..prims).map(|prim| Item::Prim { shape: id, prim }));
+        let is_mesh = matches!(shape, Shape::Mesh(_));
+        self.groups[group as usize].extend((0..prims).map(|prim| {
+            if is_mesh {
+                Item::Triangle { shape: id, prim }
+            } else {
+                Item::Prim { shape: id, prim }
+            }
+        }));
         Ok(id)
     }
 
@@ -476,6 +514,7 @@ impl SceneBuilder {
             .into_iter()
             .map(|items| Group {
                 items,
+                tris: Vec::new(),
                 bvh: Bvh::default(),
             })
             .collect();
@@ -484,7 +523,7 @@ impl SceneBuilder {
                 .items
                 .iter()
                 .map(|item| match *item {
-                    Item::Prim { shape, prim } => {
+                    Item::Triangle { shape, prim } | Item::Prim { shape, prim } => {
                         self.shapes[shape as usize].prim_bounds(&self.meshes, prim)
                     }
                     Item::Instance(i) => {
@@ -497,7 +536,19 @@ impl SceneBuilder {
                     }
                 })
                 .collect();
-            groups[gi].bvh = Bvh::build(&bounds);
+            let mut bvh = Bvh::build(&bounds);
+            let g = &mut groups[gi];
+            g.items = bvh
+                .take_leaf_order()
+                .iter()
+                .map(|&i| g.items[i as usize])
+                .collect();
+            g.tris = g
+                .items
+                .iter()
+                .map(|item| triangle_of(&self.shapes, &self.meshes, item))
+                .collect();
+            g.bvh = bvh;
         }
         let environment_emitters = self
             .emitters
@@ -616,12 +667,14 @@ mod tests {
         };
         for item in &scene.groups[0].items {
             match *item {
-                Item::Prim { shape, prim } => consider(shape, prim, ray),
+                Item::Triangle { shape, prim } | Item::Prim { shape, prim } => {
+                    consider(shape, prim, ray)
+                }
                 Item::Instance(i) => {
                     let inst = &scene.instances[i as usize];
                     let local = to_local_ray(ray, &inst.to_world);
                     for it in &scene.groups[inst.group as usize].items {
-                        if let Item::Prim { shape, prim } = *it {
+                        if let Item::Triangle { shape, prim } | Item::Prim { shape, prim } = *it {
                             consider(shape, prim, &local);
                         }
                     }

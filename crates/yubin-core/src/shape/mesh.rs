@@ -16,9 +16,9 @@
 //! (Thürmer & Wüthrich 1998). Emitting meshes get an alias table over
 //! triangle areas so that light sampling picks triangles by area.
 //!
-//! The ray–triangle test is Möller & Trumbore 1997.
+//! The ray–triangle test is watertight (Woop et al. 2013, `triangle.rs`).
 
-use super::{PositionSample, PrimHit, ShapeModel};
+use super::{PositionSample, PrimHit, ShapeModel, WatertightRay};
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Frame, Ray};
 use crate::sampling::{square_to_uniform_triangle, AliasTable};
@@ -202,33 +202,17 @@ impl TriangleMesh {
         }
     }
 
-    /// Möller–Trumbore intersection with triangle `tri`; returns t and the
+    /// The three vertices of triangle `tri`.
+    #[inline]
+    pub fn triangle(&self, tri: usize) -> [Vec3; 3] {
+        self.vertices(tri)
+    }
+
+    /// Watertight intersection with triangle `tri`; returns t and the
     /// barycentrics (b1, b2) of vertices 1 and 2.
     #[inline]
     pub fn intersect_triangle(&self, tri: usize, ray: &Ray) -> Option<PrimHit> {
-        let [p0, p1, p2] = self.vertices(tri);
-        let (e1, e2) = (p1 - p0, p2 - p0);
-        let pvec = ray.d.cross(e2);
-        let det = e1.dot(pvec);
-        if det == 0.0 || !det.is_finite() {
-            return None;
-        }
-        let inv_det = 1.0 / det;
-        let tvec = ray.o - p0;
-        let b1 = tvec.dot(pvec) * inv_det;
-        if !(0.0..=1.0).contains(&b1) {
-            return None;
-        }
-        let qvec = tvec.cross(e1);
-        let b2 = ray.d.dot(qvec) * inv_det;
-        if b2 < 0.0 || b1 + b2 > 1.0 {
-            return None;
-        }
-        let t = e2.dot(qvec) * inv_det;
-        (t > ray.t_min && t < ray.t_max).then_some(PrimHit {
-            t,
-            uv: Vec2::new(b1, b2),
-        })
+        WatertightRay::new(ray).intersect(&self.vertices(tri), ray.t_max)
     }
 
     /// Geometry at barycentrics (b1, b2) of triangle `tri`: point, unit

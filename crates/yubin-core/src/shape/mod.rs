@@ -16,12 +16,14 @@ mod disk;
 mod mesh;
 mod rectangle;
 mod sphere;
+mod triangle;
 
 pub use cylinder::Cylinder;
 pub use disk::Disk;
 pub use mesh::{MeshShape, TriangleMesh};
 pub use rectangle::Rectangle;
 pub use sphere::Sphere;
+pub use triangle::WatertightRay;
 
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
