@@ -111,25 +111,23 @@ impl RayLanes {
     fn new(ray: &Ray) -> Self {
         // A zero direction component becomes a tiny one, so that its
         // reciprocal stays finite and slabs never produce NaN.
-        let inv = |d: f32| {
+        let inv = ray.d.to_array().map(|d| {
             1.0 / if d.abs() < 1e-30 {
                 1e-30f32.copysign(d)
             } else {
                 d
             }
-        };
+        });
         Self {
             o: [
                 f32x4::splat(ray.o.x),
                 f32x4::splat(ray.o.y),
                 f32x4::splat(ray.o.z),
             ],
-            inv_d: [
-                f32x4::splat(inv(ray.d.x)),
-                f32x4::splat(inv(ray.d.y)),
-                f32x4::splat(inv(ray.d.z)),
-            ],
-            neg: [ray.d.x < 0.0, ray.d.y < 0.0, ray.d.z < 0.0],
+            inv_d: inv.map(f32x4::splat),
+            // From the reciprocal, not the direction: -0.0 has a negative
+            // reciprocal but does not compare below zero.
+            neg: inv.map(|i| i < 0.0),
         }
     }
 
@@ -535,6 +533,41 @@ mod tests {
                     hit_sphere(prims[i as usize], r).is_some()
                 });
                 assert_eq!(occluded, brute_hit.is_some());
+            }
+        }
+    }
+
+    #[test]
+    fn axis_aligned_rays_with_signed_zero_components() {
+        // A grid of unit boxes; rays along the axes with ±0 in the other
+        // components must find the box straight ahead.
+        let mut bounds = Vec::new();
+        for i in 0..5 {
+            for j in 0..5 {
+                let c = Vec3::new(i as f32 * 2.0, j as f32 * 2.0, 0.0);
+                bounds.push(Bounds3 {
+                    min: c - Vec3::splat(0.5),
+                    max: c + Vec3::splat(0.5),
+                });
+            }
+        }
+        let bvh = Bvh::build(&bounds);
+        for zero in [0.0f32, -0.0] {
+            for (o, d) in [
+                (Vec3::new(4.0, 4.0, -5.0), Vec3::new(zero, zero, 1.0)),
+                (Vec3::new(4.0, 4.0, 5.0), Vec3::new(zero, zero, -1.0)),
+                (Vec3::new(-5.0, 2.0, 0.0), Vec3::new(1.0, zero, zero)),
+                (Vec3::new(2.0, 15.0, 0.0), Vec3::new(zero, -1.0, zero)),
+            ] {
+                let mut ray = Ray::new(o, d);
+                let hit = bvh.closest(&mut ray, |i, r| {
+                    bounds[i as usize].hit(r.o, r.d.recip(), r.t_max)
+                });
+                assert!(hit, "ray {o} {d} missed");
+                assert!(
+                    bvh.any(&Ray::new(o, d), |_, _| true),
+                    "any-hit: ray {o} {d} missed"
+                );
             }
         }
     }
