@@ -17,7 +17,7 @@ use crate::interaction::SurfaceInteraction;
 use crate::light::{AreaLight, Emitter, EmitterContext};
 use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
-use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, WatertightRay};
+use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
 use crate::Rgb;
 use glam::Vec3;
 
@@ -49,8 +49,11 @@ enum Item {
 struct Group {
     /// Items in BVH leaf order.
     items: Vec<Item>,
-    /// Vertices of `Item::Triangle` items, parallel to `items`.
-    tris: Vec<[Vec3; 3]>,
+    /// Vertices of `Item::Triangle` items, parallel to `items` (NaN for
+    /// other items), packed for 4-wide tests.
+    tris: TrianglePackets,
+    /// No analytic shapes or instances: leaves need only the packet test.
+    only_triangles: bool,
     bvh: Bvh,
 }
 
@@ -141,34 +144,53 @@ impl Scene {
     ) -> Option<HitRecord> {
         let wr = WatertightRay::new(ray);
         let mut rec = None;
-        g.bvh.closest(ray, |i, r| {
-            let i = i as usize;
-            let (shape, prim, hit) = match g.items[i] {
-                Item::Triangle { shape, prim } => (shape, prim, wr.intersect(&g.tris[i], r.t_max)?),
-                Item::Prim { shape, prim } => (
-                    shape,
-                    prim,
-                    self.shapes[shape as usize].intersect(&self.meshes, prim, r)?,
-                ),
-                Item::Instance(inst) => {
-                    let placed = &self.instances[inst as usize];
-                    let mut local = to_local_ray(r, &placed.to_world);
-                    let h = self.closest_in_group(
-                        &self.groups[placed.group as usize],
-                        &mut local,
-                        Some(inst),
-                    )?;
-                    rec = Some(h);
-                    return Some(h.hit.t);
+        g.bvh.closest_leaves(ray, |start, count, r| {
+            let mut r = *r;
+            let mut best = None;
+            // The leaf's triangles, four at a time; other items are NaN lanes.
+            if let Some((lane, hit)) = wr.intersect4(&g.tris, start, count, r.t_max) {
+                if let Item::Triangle { shape, prim } = g.items[start + lane] {
+                    rec = Some(HitRecord {
+                        shape,
+                        prim,
+                        hit,
+                        instance,
+                    });
+                    r.t_max = hit.t;
+                    best = Some(hit.t);
                 }
-            };
-            rec = Some(HitRecord {
-                shape,
-                prim,
-                hit,
-                instance,
-            });
-            Some(hit.t)
+            }
+            if g.only_triangles {
+                return best;
+            }
+            for i in start..start + count {
+                let h = match g.items[i] {
+                    Item::Triangle { .. } => None,
+                    Item::Prim { shape, prim } => self.shapes[shape as usize]
+                        .intersect(&self.meshes, prim, &r)
+                        .map(|hit| HitRecord {
+                            shape,
+                            prim,
+                            hit,
+                            instance,
+                        }),
+                    Item::Instance(inst) => {
+                        let placed = &self.instances[inst as usize];
+                        let mut local = to_local_ray(&r, &placed.to_world);
+                        self.closest_in_group(
+                            &self.groups[placed.group as usize],
+                            &mut local,
+                            Some(inst),
+                        )
+                    }
+                };
+                if let Some(h) = h {
+                    rec = Some(h);
+                    r.t_max = h.hit.t;
+                    best = Some(h.hit.t);
+                }
+            }
+            best
         });
         rec
     }
@@ -176,21 +198,26 @@ impl Scene {
     /// True when any item of the group blocks the ray.
     fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
         let wr = WatertightRay::new(ray);
-        g.bvh.any(ray, |i, r| {
-            let i = i as usize;
-            match g.items[i] {
-                Item::Triangle { .. } => wr.intersect(&g.tris[i], r.t_max).is_some(),
-                Item::Prim { shape, prim } => self.shapes[shape as usize]
-                    .intersect(&self.meshes, prim, r)
-                    .is_some(),
-                Item::Instance(inst) => {
-                    let placed = &self.instances[inst as usize];
-                    self.occluded_in_group(
-                        &self.groups[placed.group as usize],
-                        &to_local_ray(r, &placed.to_world),
-                    )
-                }
+        g.bvh.any_leaves(ray, |start, count, r| {
+            if wr.intersect4(&g.tris, start, count, r.t_max).is_some() {
+                return true;
             }
+            !g.only_triangles
+                && g.items[start..start + count]
+                    .iter()
+                    .any(|item| match *item {
+                        Item::Triangle { .. } => false,
+                        Item::Prim { shape, prim } => self.shapes[shape as usize]
+                            .intersect(&self.meshes, prim, r)
+                            .is_some(),
+                        Item::Instance(inst) => {
+                            let placed = &self.instances[inst as usize];
+                            self.occluded_in_group(
+                                &self.groups[placed.group as usize],
+                                &to_local_ray(r, &placed.to_world),
+                            )
+                        }
+                    })
         })
     }
 
@@ -278,14 +305,14 @@ fn instance_to_world(local: &SurfaceInteraction, t: &Transform) -> SurfaceIntera
     }
 }
 
-/// The vertices of a triangle item (zeros for other items).
-fn triangle_of(shapes: &[Shape], meshes: &[TriangleMesh], item: &Item) -> [Vec3; 3] {
+/// The vertices of a triangle item (`None` for other items).
+fn triangle_of(shapes: &[Shape], meshes: &[TriangleMesh], item: &Item) -> Option<[Vec3; 3]> {
     match *item {
         Item::Triangle { shape, prim } => match shapes[shape as usize] {
-            Shape::Mesh(m) => meshes[m.mesh as usize].triangle(prim as usize),
-            _ => [Vec3::ZERO; 3],
+            Shape::Mesh(m) => Some(meshes[m.mesh as usize].triangle(prim as usize)),
+            _ => None,
         },
-        _ => [Vec3::ZERO; 3],
+        _ => None,
     }
 }
 
@@ -514,7 +541,8 @@ impl SceneBuilder {
             .into_iter()
             .map(|items| Group {
                 items,
-                tris: Vec::new(),
+                tris: TrianglePackets::default(),
+                only_triangles: false,
                 bvh: Bvh::default(),
             })
             .collect();
@@ -543,11 +571,15 @@ impl SceneBuilder {
                 .iter()
                 .map(|&i| g.items[i as usize])
                 .collect();
-            g.tris = g
+            g.tris = TrianglePackets::new(
+                g.items
+                    .iter()
+                    .map(|item| triangle_of(&self.shapes, &self.meshes, item)),
+            );
+            g.only_triangles = g
                 .items
                 .iter()
-                .map(|item| triangle_of(&self.shapes, &self.meshes, item))
-                .collect();
+                .all(|item| matches!(item, Item::Triangle { .. }));
             g.bvh = bvh;
         }
         let environment_emitters = self

@@ -266,6 +266,30 @@ impl Bvh {
     /// closest distance.
     #[inline]
     pub fn closest(&self, ray: &mut Ray, mut hit: impl FnMut(u32, &Ray) -> Option<f32>) -> bool {
+        self.closest_leaves(ray, |start, count, r| {
+            let mut r = *r;
+            let mut best = None;
+            for &p in &self.prims[start..start + count] {
+                if let Some(t) = hit(p, &r) {
+                    r.t_max = t;
+                    best = Some(t);
+                }
+            }
+            best
+        })
+    }
+
+    /// Like [`Bvh::closest`], but hands over whole leaves: `leaf(start,
+    /// count, ray)` tests positions `start..start + count` of the leaf
+    /// order (after [`Bvh::take_leaf_order`], the caller's own indices) and
+    /// returns the nearest hit closer than `ray.t_max`. This lets callers
+    /// test a leaf's primitives together (SIMD triangle packets).
+    #[inline]
+    pub fn closest_leaves(
+        &self,
+        ray: &mut Ray,
+        mut leaf: impl FnMut(usize, usize, &Ray) -> Option<f32>,
+    ) -> bool {
         if self.root == EMPTY {
             return false;
         }
@@ -283,11 +307,9 @@ impl Bvh {
             if code & LEAF_BIT != 0 {
                 let start = (code & START_MASK) as usize;
                 let count = ((code >> 29) & 3) as usize + 1;
-                for &p in &self.prims[start..start + count] {
-                    if let Some(t) = hit(p, ray) {
-                        ray.t_max = t;
-                        found = true;
-                    }
+                if let Some(t) = leaf(start, count, ray) {
+                    ray.t_max = t;
+                    found = true;
                 }
                 continue;
             }
@@ -317,6 +339,14 @@ impl Bvh {
     /// masks, null boundaries) goes: return false to let the ray pass.
     #[inline]
     pub fn any(&self, ray: &Ray, mut hit: impl FnMut(u32, &Ray) -> bool) -> bool {
+        self.any_leaves(ray, |start, count, r| {
+            self.prims[start..start + count].iter().any(|&p| hit(p, r))
+        })
+    }
+
+    /// Like [`Bvh::any`], leaf by leaf (see [`Bvh::closest_leaves`]).
+    #[inline]
+    pub fn any_leaves(&self, ray: &Ray, mut leaf: impl FnMut(usize, usize, &Ray) -> bool) -> bool {
         if self.root == EMPTY {
             return false;
         }
@@ -330,10 +360,7 @@ impl Bvh {
             if code & LEAF_BIT != 0 {
                 let start = (code & START_MASK) as usize;
                 let count = ((code >> 29) & 3) as usize + 1;
-                if self.prims[start..start + count]
-                    .iter()
-                    .any(|&p| hit(p, ray))
-                {
+                if leaf(start, count, ray) {
                     return true;
                 }
                 continue;

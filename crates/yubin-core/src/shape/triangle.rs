@@ -12,6 +12,62 @@
 use super::PrimHit;
 use crate::math::Ray;
 use glam::{Vec2, Vec3};
+use wide::{f32x4, CmpEq, CmpGt, CmpLt};
+
+/// Triangles stored structure-of-arrays (per vertex, per axis), so that
+/// four consecutive ones load as SIMD lanes. Entries that are not
+/// triangles hold NaN, which no ray can hit. Arrays are padded by three
+/// entries so that a load at any index is in bounds.
+#[derive(Clone, Debug, Default)]
+pub struct TrianglePackets {
+    v: [[Vec<f32>; 3]; 3],
+}
+
+impl TrianglePackets {
+    /// Packs `tris` in order; `None` marks an entry that is not a triangle.
+    pub fn new(tris: impl ExactSizeIterator<Item = Option<[Vec3; 3]>>) -> Self {
+        let n = tris.len() + 3;
+        let mut v: [[Vec<f32>; 3]; 3] = Default::default();
+        for axis in v.iter_mut().flatten() {
+            axis.reserve_exact(n);
+        }
+        for tri in tris {
+            let tri = tri.unwrap_or([Vec3::NAN; 3]);
+            for (vertex, p) in tri.iter().enumerate() {
+                for axis in 0..3 {
+                    v[vertex][axis].push(p[axis]);
+                }
+            }
+        }
+        for axis in v.iter_mut().flatten() {
+            axis.extend([f32::NAN; 3]);
+        }
+        Self { v }
+    }
+
+    /// Bytes held.
+    pub fn memory_bytes(&self) -> usize {
+        self.v.iter().flatten().map(|a| a.capacity() * 4).sum()
+    }
+
+    #[inline]
+    fn load(&self, vertex: usize, axis: usize, start: usize) -> f32x4 {
+        let a = &self.v[vertex][axis][start..start + 4];
+        f32x4::new([a[0], a[1], a[2], a[3]])
+    }
+
+    /// The vertices of entry `i`.
+    #[inline]
+    pub fn vertices(&self, i: usize) -> [Vec3; 3] {
+        std::array::from_fn(|vertex| {
+            Vec3::new(
+                self.v[vertex][0][i],
+                self.v[vertex][1][i],
+                self.v[vertex][2][i],
+            )
+        })
+    }
+}
 
 /// A ray prepared for watertight triangle tests.
 #[derive(Clone, Copy, Debug)]
@@ -82,6 +138,84 @@ impl WatertightRay {
             t,
             uv: Vec2::new(v_ * inv_det, w * inv_det),
         })
+    }
+}
+
+impl WatertightRay {
+    /// The nearest hit among the `count` (at most four) packed triangles
+    /// starting at `start`, closer than `t_max`: the lane and the hit. The
+    /// same test as [`WatertightRay::intersect`], four triangles at a time.
+    #[inline]
+    pub fn intersect4(
+        &self,
+        p: &TrianglePackets,
+        start: usize,
+        count: usize,
+        t_max: f32,
+    ) -> Option<(usize, PrimHit)> {
+        let [kx, ky, kz] = self.k;
+        let (ox, oy, oz) = (
+            f32x4::splat(self.o[kx]),
+            f32x4::splat(self.o[ky]),
+            f32x4::splat(self.o[kz]),
+        );
+        let (sx, sy, sz) = (
+            f32x4::splat(self.s.x),
+            f32x4::splat(self.s.y),
+            f32x4::splat(self.s.z),
+        );
+        // Vertex `v`, translated to the ray origin and sheared.
+        let vertex = |v: usize| {
+            let z = p.load(v, kz, start) - oz;
+            (
+                p.load(v, kx, start) - ox - sx * z,
+                p.load(v, ky, start) - oy - sy * z,
+                sz * z,
+            )
+        };
+        let (ax, ay, az) = vertex(0);
+        let (bx, by, bz) = vertex(1);
+        let (cx, cy, cz) = vertex(2);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        let zero = f32x4::ZERO;
+        let lanes = (1u32 << count) - 1;
+        let bits = |m: f32x4| m.move_mask() as u32;
+        // Lanes with an edge function of exactly 0 are redone in f64 below.
+        let exact = bits(u.cmp_eq(zero) | v.cmp_eq(zero) | w.cmp_eq(zero)) & lanes;
+        let negative = bits(u.cmp_lt(zero) | v.cmp_lt(zero) | w.cmp_lt(zero));
+        let positive = bits(u.cmp_gt(zero) | v.cmp_gt(zero) | w.cmp_gt(zero));
+        let det = u + v + w;
+        let t = (u * az + v * bz + w * cz) / det;
+        let in_range = bits(t.cmp_gt(f32x4::splat(self.t_min)) & t.cmp_lt(f32x4::splat(t_max)));
+        let mut hit = lanes & !exact & !(negative & positive) & !bits(det.cmp_eq(zero)) & in_range;
+        let (t, v, w, det) = (t.to_array(), v.to_array(), w.to_array(), det.to_array());
+        let mut best: Option<(usize, PrimHit)> = None;
+        while hit != 0 {
+            let lane = hit.trailing_zeros() as usize;
+            hit &= hit - 1;
+            if best.is_none_or(|(_, b)| t[lane] < b.t) {
+                let inv = 1.0 / det[lane];
+                best = Some((
+                    lane,
+                    PrimHit {
+                        t: t[lane],
+                        uv: Vec2::new(v[lane] * inv, w[lane] * inv),
+                    },
+                ));
+            }
+        }
+        let mut exact = exact;
+        while exact != 0 {
+            let lane = exact.trailing_zeros() as usize;
+            exact &= exact - 1;
+            let limit = best.map_or(t_max, |(_, b)| b.t);
+            if let Some(h) = self.intersect(&p.vertices(start + lane), limit) {
+                best = Some((lane, h));
+            }
+        }
+        best
     }
 }
 
@@ -168,6 +302,47 @@ mod tests {
             }
         }
         assert!(aimed > 1000);
+    }
+
+    #[test]
+    fn four_wide_test_agrees_with_the_scalar_one() {
+        let tris = octahedron_grid(6);
+        let packets = TrianglePackets::new(tris.iter().map(|t| Some(*t)));
+        let mut rng = Pcg32::new(3, 4);
+        let mut hits = 0;
+        for _ in 0..4000 {
+            let o = crate::sampling::square_to_uniform_sphere(rng.next_2d()) * 2.5;
+            let target =
+                (crate::sampling::square_to_uniform_sphere(rng.next_2d()) * 0.6).with_z(0.0);
+            let ray = Ray::new(o, (target - o).normalize());
+            let wr = WatertightRay::new(&ray);
+            for start in (0..tris.len()).step_by(3) {
+                let count = (tris.len() - start).min(1 + start % 4);
+                let scalar = (start..start + count)
+                    .filter_map(|i| {
+                        wr.intersect(&tris[i], f32::INFINITY)
+                            .map(|h| (i - start, h))
+                    })
+                    .min_by(|a, b| a.1.t.total_cmp(&b.1.t));
+                let simd = wr.intersect4(&packets, start, count, f32::INFINITY);
+                assert_eq!(scalar.map(|s| s.0), simd.map(|s| s.0));
+                if let (Some((_, a)), Some((_, b))) = (scalar, simd) {
+                    assert!((a.t - b.t).abs() <= 1e-6 * a.t && (a.uv - b.uv).length() < 1e-5);
+                    hits += 1;
+                }
+            }
+        }
+        assert!(hits > 1000);
+        // Non-triangle (NaN) entries are never hit.
+        let mixed = TrianglePackets::new([None, Some(tris[0]), None].into_iter());
+        let c = (tris[0][0] + tris[0][1] + tris[0][2]) / 3.0;
+        let ray = Ray::new(c * 3.0, -c.normalize());
+        assert_eq!(
+            WatertightRay::new(&ray)
+                .intersect4(&mixed, 0, 3, f32::INFINITY)
+                .map(|h| h.0),
+            Some(1)
+        );
     }
 
     #[test]
