@@ -38,6 +38,8 @@ enum Item {
         shape: u32,
         prim: u32,
     },
+    /// Padding that keeps every BVH leaf in one 4-wide packet.
+    Empty,
     Prim {
         shape: u32,
         prim: u32,
@@ -165,7 +167,7 @@ impl Scene {
             }
             for i in start..start + count {
                 let h = match g.items[i] {
-                    Item::Triangle { .. } => None,
+                    Item::Triangle { .. } | Item::Empty => None,
                     Item::Prim { shape, prim } => self.shapes[shape as usize]
                         .intersect(&self.meshes, prim, &r)
                         .map(|hit| HitRecord {
@@ -206,7 +208,7 @@ impl Scene {
                 && g.items[start..start + count]
                     .iter()
                     .any(|item| match *item {
-                        Item::Triangle { .. } => false,
+                        Item::Triangle { .. } | Item::Empty => false,
                         Item::Prim { shape, prim } => self.shapes[shape as usize]
                             .intersect(&self.meshes, prim, r)
                             .is_some(),
@@ -554,6 +556,7 @@ impl SceneBuilder {
                     Item::Triangle { shape, prim } | Item::Prim { shape, prim } => {
                         self.shapes[shape as usize].prim_bounds(&self.meshes, prim)
                     }
+                    Item::Empty => Bounds3::EMPTY,
                     Item::Instance(i) => {
                         let inst = &self.instances[i as usize];
                         let local = groups[inst.group as usize].bvh.bounds();
@@ -567,9 +570,9 @@ impl SceneBuilder {
             let mut bvh = Bvh::build(&bounds);
             let g = &mut groups[gi];
             g.items = bvh
-                .take_leaf_order()
+                .take_leaf_order_packed()
                 .iter()
-                .map(|&i| g.items[i as usize])
+                .map(|slot| slot.map_or(Item::Empty, |i| g.items[i as usize]))
                 .collect();
             g.tris = TrianglePackets::new(
                 g.items
@@ -579,7 +582,7 @@ impl SceneBuilder {
             g.only_triangles = g
                 .items
                 .iter()
-                .all(|item| matches!(item, Item::Triangle { .. }));
+                .all(|item| matches!(item, Item::Triangle { .. } | Item::Empty));
             g.bvh = bvh;
         }
         let environment_emitters = self
@@ -702,6 +705,7 @@ mod tests {
                 Item::Triangle { shape, prim } | Item::Prim { shape, prim } => {
                     consider(shape, prim, ray)
                 }
+                Item::Empty => {}
                 Item::Instance(i) => {
                     let inst = &scene.instances[i as usize];
                     let local = to_local_ray(ray, &inst.to_world);

@@ -17,7 +17,7 @@ use wide::{f32x4, CmpLe};
 const BINS: usize = 16;
 const MAX_LEAF: usize = 4;
 /// Cost of a ray–primitive test relative to a ray–box test.
-const INTERSECT_COST: f32 = 1.0;
+const INTERSECT_COST: f32 = 0.3;
 const TRAVERSAL_COST: f32 = 1.0;
 const PARALLEL_THRESHOLD: usize = 4096;
 /// Traversal stack entries: a 4-wide node pushes at most 3 siblings per
@@ -185,6 +185,7 @@ impl Bvh {
             bounds: root.bounds(),
         };
         bvh.root = bvh.collapse(&root);
+        bvh.nodes.shrink_to_fit();
         bvh
     }
 
@@ -205,6 +206,34 @@ impl Bvh {
         let order = std::mem::take(&mut self.prims);
         self.prims = (0..order.len() as u32).collect();
         order
+    }
+
+    /// Like [`Bvh::take_leaf_order`], but every leaf starts at a multiple
+    /// of four positions (a leaf holds at most four primitives): slot `i`
+    /// of the result is the primitive at position `i`, `None` for padding.
+    /// Callers then store each leaf as one aligned 4-wide packet.
+    pub fn take_leaf_order_packed(&mut self) -> Vec<Option<u32>> {
+        let order = std::mem::take(&mut self.prims);
+        let mut slots: Vec<Option<u32>> = Vec::with_capacity(order.len() * 2);
+        let mut repack = |code: u32| {
+            if code == EMPTY || code & LEAF_BIT == 0 {
+                return code;
+            }
+            let start = (code & START_MASK) as usize;
+            let count = ((code >> 29) & 3) as usize + 1;
+            let new_start = slots.len();
+            slots.extend(order[start..start + count].iter().map(|&p| Some(p)));
+            slots.resize(new_start + 4, None);
+            leaf_code(new_start, count)
+        };
+        self.root = repack(self.root);
+        for node in &mut self.nodes {
+            for c in &mut node.child {
+                *c = repack(*c);
+            }
+        }
+        self.prims = (0..slots.len() as u32).collect();
+        slots
     }
 
     /// Memory held by the structure (nodes and primitive indices).

@@ -14,57 +14,45 @@ use crate::math::Ray;
 use glam::{Vec2, Vec3};
 use wide::{f32x4, CmpEq, CmpGt, CmpLt};
 
-/// Triangles stored structure-of-arrays (per vertex, per axis), so that
-/// four consecutive ones load as SIMD lanes. Entries that are not
-/// triangles hold NaN, which no ray can hit. Arrays are padded by three
-/// entries so that a load at any index is in bounds.
+/// Triangles in packets of four, structure-of-arrays inside a packet
+/// (per vertex, per axis, four lanes), so that one 144-byte packet holds a
+/// whole BVH leaf and loads as SIMD lanes. Entries that are not triangles
+/// hold NaN, which no ray can hit.
 #[derive(Clone, Debug, Default)]
 pub struct TrianglePackets {
-    v: [[Vec<f32>; 3]; 3],
+    packets: Vec<[[f32x4; 3]; 3]>,
 }
 
 impl TrianglePackets {
-    /// Packs `tris` in order; `None` marks an entry that is not a triangle.
+    /// Packs `tris` in order, four to a packet; `None` marks an entry that
+    /// is not a triangle (or padding).
     pub fn new(tris: impl ExactSizeIterator<Item = Option<[Vec3; 3]>>) -> Self {
-        let n = tris.len() + 3;
-        let mut v: [[Vec<f32>; 3]; 3] = Default::default();
-        for axis in v.iter_mut().flatten() {
-            axis.reserve_exact(n);
-        }
-        for tri in tris {
-            let tri = tri.unwrap_or([Vec3::NAN; 3]);
-            for (vertex, p) in tri.iter().enumerate() {
-                for axis in 0..3 {
-                    v[vertex][axis].push(p[axis]);
-                }
-            }
-        }
-        for axis in v.iter_mut().flatten() {
-            axis.extend([f32::NAN; 3]);
-        }
-        Self { v }
+        let mut lanes: Vec<[Vec3; 3]> = tris.map(|t| t.unwrap_or([Vec3::NAN; 3])).collect();
+        lanes.resize(lanes.len().div_ceil(4) * 4, [Vec3::NAN; 3]);
+        let packets = lanes
+            .chunks_exact(4)
+            .map(|quad| {
+                std::array::from_fn(|v| {
+                    std::array::from_fn(|axis| {
+                        f32x4::new(std::array::from_fn(|lane| quad[lane][v][axis]))
+                    })
+                })
+            })
+            .collect();
+        Self { packets }
     }
 
     /// Bytes held.
     pub fn memory_bytes(&self) -> usize {
-        self.v.iter().flatten().map(|a| a.capacity() * 4).sum()
-    }
-
-    #[inline]
-    fn load(&self, vertex: usize, axis: usize, start: usize) -> f32x4 {
-        let a = &self.v[vertex][axis][start..start + 4];
-        f32x4::new([a[0], a[1], a[2], a[3]])
+        self.packets.capacity() * std::mem::size_of::<[[f32x4; 3]; 3]>()
     }
 
     /// The vertices of entry `i`.
     #[inline]
     pub fn vertices(&self, i: usize) -> [Vec3; 3] {
-        std::array::from_fn(|vertex| {
-            Vec3::new(
-                self.v[vertex][0][i],
-                self.v[vertex][1][i],
-                self.v[vertex][2][i],
-            )
+        let p = &self.packets[i / 4];
+        std::array::from_fn(|v| {
+            Vec3::from_array(std::array::from_fn(|axis| p[v][axis].to_array()[i % 4]))
         })
     }
 }
@@ -142,9 +130,10 @@ impl WatertightRay {
 }
 
 impl WatertightRay {
-    /// The nearest hit among the `count` (at most four) packed triangles
-    /// starting at `start`, closer than `t_max`: the lane and the hit. The
-    /// same test as [`WatertightRay::intersect`], four triangles at a time.
+    /// The nearest hit among the first `count` lanes of the packet that
+    /// holds entry `start` (a multiple of four), closer than `t_max`: the
+    /// lane and the hit. The same test as [`WatertightRay::intersect`], four
+    /// triangles at a time.
     #[inline]
     pub fn intersect4(
         &self,
@@ -153,6 +142,8 @@ impl WatertightRay {
         count: usize,
         t_max: f32,
     ) -> Option<(usize, PrimHit)> {
+        debug_assert!(start % 4 == 0 && count <= 4);
+        let packet = &p.packets[start / 4];
         let [kx, ky, kz] = self.k;
         let (ox, oy, oz) = (
             f32x4::splat(self.o[kx]),
@@ -166,10 +157,10 @@ impl WatertightRay {
         );
         // Vertex `v`, translated to the ray origin and sheared.
         let vertex = |v: usize| {
-            let z = p.load(v, kz, start) - oz;
+            let z = packet[v][kz] - oz;
             (
-                p.load(v, kx, start) - ox - sx * z,
-                p.load(v, ky, start) - oy - sy * z,
+                packet[v][kx] - ox - sx * z,
+                packet[v][ky] - oy - sy * z,
                 sz * z,
             )
         };
@@ -316,8 +307,8 @@ mod tests {
                 (crate::sampling::square_to_uniform_sphere(rng.next_2d()) * 0.6).with_z(0.0);
             let ray = Ray::new(o, (target - o).normalize());
             let wr = WatertightRay::new(&ray);
-            for start in (0..tris.len()).step_by(3) {
-                let count = (tris.len() - start).min(1 + start % 4);
+            for start in (0..tris.len()).step_by(4) {
+                let count = (tris.len() - start).min(1 + start % 3);
                 let scalar = (start..start + count)
                     .filter_map(|i| {
                         wr.intersect(&tris[i], f32::INFINITY)
