@@ -142,7 +142,7 @@ impl WatertightRay {
         count: usize,
         t_max: f32,
     ) -> Option<(usize, PrimHit)> {
-        debug_assert!(start % 4 == 0 && count <= 4);
+        debug_assert!(start.is_multiple_of(4) && count <= 4);
         let packet = &p.packets[start / 4];
         let [kx, ky, kz] = self.k;
         let (ox, oy, oz) = (
