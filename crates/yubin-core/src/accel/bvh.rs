@@ -1,18 +1,22 @@
-//! A 4-wide bounding volume hierarchy.
+//! An 8-wide bounding volume hierarchy.
 //!
 //! Built top-down with binned SAH (Wald 2007, "On fast Construction of
 //! SAH-based Bounding Volume Hierarchies"; pbrt-v4 §7.3), subtrees in
-//! parallel with rayon; the binary tree is then collapsed into 4-wide nodes
+//! parallel with rayon; the binary tree is then collapsed into 8-wide nodes
 //! by repeatedly opening the child with the largest surface area (Wald et
 //! al. 2008, "Getting Rid of Packets"; Dammertz et al. 2008, "Shallow
-//! Bounding Volume Hierarchies"). A node stores its four children's boxes
-//! in structure-of-arrays form, so one ray meets all four with a handful of
-//! SIMD instructions (`wide::f32x4`: SSE on x86-64, NEON on ARM, scalar
+//! Bounding Volume Hierarchies"). A node stores its eight children's boxes
+//! in structure-of-arrays form, so one ray meets all eight with a handful
+//! of SIMD instructions (`wide::f32x8`: AVX when the build targets it, two
+//! SSE halves on baseline x86-64, NEON on ARM, scalar
 //! elsewhere; no `unsafe`).
 
 use crate::math::{Bounds3, Ray};
 use glam::Vec3;
-use wide::{f32x4, CmpLe};
+use wide::{f32x8, CmpLe};
+
+/// Children per node.
+const WIDTH: usize = 8;
 
 const BINS: usize = 16;
 const MAX_LEAF: usize = 4;
@@ -20,7 +24,7 @@ const MAX_LEAF: usize = 4;
 const INTERSECT_COST: f32 = 0.3;
 const TRAVERSAL_COST: f32 = 1.0;
 const PARALLEL_THRESHOLD: usize = 4096;
-/// Traversal stack entries: a 4-wide node pushes at most 3 siblings per
+/// Traversal stack entries: an 8-wide node pushes at most 7 siblings per
 /// level, and the tree is at most `MAX_SAH_DEPTH` + log2(n) binary levels.
 const STACK: usize = 256;
 /// Below this depth, splits are forced to the median so that no tree is
@@ -41,19 +45,19 @@ fn leaf_code(start: usize, count: usize) -> u32 {
 }
 
 #[derive(Clone, Copy, Debug)]
-struct Node4 {
+struct Node {
     /// Per axis, the four children's lower bounds.
-    min: [f32x4; 3],
+    min: [f32x8; 3],
     /// Per axis, the four children's upper bounds.
-    max: [f32x4; 3],
-    child: [u32; 4],
+    max: [f32x8; 3],
+    child: [u32; WIDTH],
 }
 
-impl Node4 {
+impl Node {
     const EMPTY: Self = Self {
-        min: [f32x4::new([f32::INFINITY; 4]); 3],
-        max: [f32x4::new([f32::NEG_INFINITY; 4]); 3],
-        child: [EMPTY; 4],
+        min: [f32x8::new([f32::INFINITY; WIDTH]); 3],
+        max: [f32x8::new([f32::NEG_INFINITY; WIDTH]); 3],
+        child: [EMPTY; WIDTH],
     };
 }
 
@@ -61,7 +65,7 @@ impl Node4 {
 /// given to [`Bvh::build`].
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
-    nodes: Vec<Node4>,
+    nodes: Vec<Node>,
     prims: Vec<u32>,
     /// Child code of the root: a node index or a leaf.
     root: u32,
@@ -98,8 +102,8 @@ impl BuildNode {
 /// A ray prepared for box tests: origin and reciprocal direction splatted
 /// across the four lanes.
 struct RayLanes {
-    o: [f32x4; 3],
-    inv_d: [f32x4; 3],
+    o: [f32x8; 3],
+    inv_d: [f32x8; 3],
     /// Per axis, whether the direction is negative: the near slab is then
     /// the box's upper bound. Choosing slabs by sign (instead of min/max of
     /// both) also rejects the empty boxes of unused child slots.
@@ -120,11 +124,11 @@ impl RayLanes {
         });
         Self {
             o: [
-                f32x4::splat(ray.o.x),
-                f32x4::splat(ray.o.y),
-                f32x4::splat(ray.o.z),
+                f32x8::splat(ray.o.x),
+                f32x8::splat(ray.o.y),
+                f32x8::splat(ray.o.z),
             ],
-            inv_d: inv.map(f32x4::splat),
+            inv_d: inv.map(f32x8::splat),
             // From the reciprocal, not the direction: -0.0 has a negative
             // reciprocal but does not compare below zero.
             neg: inv.map(|i| i < 0.0),
@@ -134,9 +138,9 @@ impl RayLanes {
     /// Entry distances of the four child boxes and a bit mask of those the
     /// ray meets within `[t_min, t_max]`.
     #[inline]
-    fn hit4(&self, node: &Node4, t_min: f32, t_max: f32) -> (f32x4, u32) {
-        let mut t_near = f32x4::splat(t_min);
-        let mut t_far = f32x4::splat(t_max);
+    fn hit_children(&self, node: &Node, t_min: f32, t_max: f32) -> (f32x8, u32) {
+        let mut t_near = f32x8::splat(t_min);
+        let mut t_far = f32x8::splat(t_max);
         for a in 0..3 {
             let (near, far) = if self.neg[a] {
                 (node.max[a], node.min[a])
@@ -148,7 +152,7 @@ impl RayLanes {
         }
         // The 1 + 2γ₃ factor keeps the test conservative under round-off
         // (pbrt-v4 §6.8.2).
-        let hit = t_near.cmp_le(t_far * f32x4::splat(1.000_000_4));
+        let hit = t_near.cmp_le(t_far * f32x8::splat(1.000_000_4));
         (t_near, hit.move_mask() as u32)
     }
 }
@@ -238,10 +242,10 @@ impl Bvh {
 
     /// Memory held by the structure (nodes and primitive indices).
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node4>() + self.prims.capacity() * 4
+        self.nodes.capacity() * std::mem::size_of::<Node>() + self.prims.capacity() * 4
     }
 
-    /// Turns a binary subtree into 4-wide nodes; returns its child code.
+    /// Turns a binary subtree into 8-wide nodes; returns its child code.
     fn collapse(&mut self, node: &BuildNode) -> u32 {
         let BuildNode::Inner { children, .. } = node else {
             let BuildNode::Leaf { start, count, .. } = node else {
@@ -251,7 +255,7 @@ impl Bvh {
         };
         let mut kids: Vec<&BuildNode> = vec![&children[0], &children[1]];
         // Open the largest inner child until there are four.
-        while kids.len() < 4 {
+        while kids.len() < WIDTH {
             let Some((i, _)) = kids
                 .iter()
                 .enumerate()
@@ -271,9 +275,9 @@ impl Bvh {
             kids.insert(i + 1, &children[1]);
         }
         let index = self.nodes.len();
-        self.nodes.push(Node4::EMPTY);
-        let mut node4 = Node4::EMPTY;
-        let (mut min, mut max) = ([[f32::INFINITY; 4]; 3], [[f32::NEG_INFINITY; 4]; 3]);
+        self.nodes.push(Node::EMPTY);
+        let mut node4 = Node::EMPTY;
+        let (mut min, mut max) = ([[f32::INFINITY; WIDTH]; 3], [[f32::NEG_INFINITY; WIDTH]; 3]);
         for (slot, kid) in kids.iter().enumerate() {
             let b = kid.bounds();
             for a in 0..3 {
@@ -282,8 +286,8 @@ impl Bvh {
             }
             node4.child[slot] = self.collapse(kid);
         }
-        node4.min = min.map(f32x4::new);
-        node4.max = max.map(f32x4::new);
+        node4.min = min.map(f32x8::new);
+        node4.max = max.map(f32x8::new);
         self.nodes[index] = node4;
         index as u32
     }
@@ -343,7 +347,7 @@ impl Bvh {
                 continue;
             }
             let node = &self.nodes[code as usize];
-            let (t_near, mut mask) = lanes.hit4(node, ray.t_min, ray.t_max);
+            let (t_near, mut mask) = lanes.hit_children(node, ray.t_min, ray.t_max);
             let t_near = t_near.to_array();
             // Push hit children far-to-near so the nearest is popped first.
             let base = sp;
@@ -395,7 +399,7 @@ impl Bvh {
                 continue;
             }
             let node = &self.nodes[code as usize];
-            let (_, mut mask) = lanes.hit4(node, ray.t_min, ray.t_max);
+            let (_, mut mask) = lanes.hit_children(node, ray.t_min, ray.t_max);
             while mask != 0 {
                 let slot = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
