@@ -12,6 +12,7 @@
 //! elsewhere; no `unsafe`).
 
 use crate::math::{Bounds3, Ray};
+use arrayvec::ArrayVec;
 use glam::Vec3;
 use wide::{f32x8, CmpLe};
 
@@ -327,13 +328,11 @@ impl Bvh {
             return false;
         }
         let lanes = RayLanes::new(ray);
-        let mut stack = [(0u32, 0.0f32); STACK];
-        stack[0] = (self.root, ray.t_min);
-        let mut sp = 1;
+        // ArrayVec: a fixed-capacity stack that is not zeroed per ray.
+        let mut stack: ArrayVec<(u32, f32), STACK> = ArrayVec::new();
+        stack.push((self.root, ray.t_min));
         let mut found = false;
-        while sp > 0 {
-            sp -= 1;
-            let (code, t_enter) = stack[sp];
+        while let Some((code, t_enter)) = stack.pop() {
             if t_enter > ray.t_max {
                 continue;
             }
@@ -350,18 +349,17 @@ impl Bvh {
             let (t_near, mut mask) = lanes.hit_children(node, ray.t_min, ray.t_max);
             let t_near = t_near.to_array();
             // Push hit children far-to-near so the nearest is popped first.
-            let base = sp;
+            let base = stack.len();
             while mask != 0 {
                 let slot = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                let entry = (node.child[slot], t_near[slot]);
-                let mut i = sp;
-                while i > base && stack[i - 1].1 < entry.1 {
-                    stack[i] = stack[i - 1];
+                // Depth is bounded (see MAX_SAH_DEPTH), so this never fails.
+                let _ = stack.try_push((node.child[slot], t_near[slot]));
+                let mut i = stack.len() - 1;
+                while i > base && stack[i - 1].1 < stack[i].1 {
+                    stack.swap(i - 1, i);
                     i -= 1;
                 }
-                stack[i] = entry;
-                sp += 1;
             }
         }
         found
@@ -384,12 +382,9 @@ impl Bvh {
             return false;
         }
         let lanes = RayLanes::new(ray);
-        let mut stack = [0u32; STACK];
-        stack[0] = self.root;
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            let code = stack[sp];
+        let mut stack: ArrayVec<u32, STACK> = ArrayVec::new();
+        stack.push(self.root);
+        while let Some(code) = stack.pop() {
             if code & LEAF_BIT != 0 {
                 let start = (code & START_MASK) as usize;
                 let count = ((code >> 29) & 3) as usize + 1;
@@ -403,8 +398,7 @@ impl Bvh {
             while mask != 0 {
                 let slot = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                stack[sp] = node.child[slot];
-                sp += 1;
+                let _ = stack.try_push(node.child[slot]);
             }
         }
         false

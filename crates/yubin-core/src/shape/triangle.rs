@@ -21,6 +21,9 @@ use wide::{f32x4, CmpEq, CmpGt, CmpLt};
 #[derive(Clone, Debug, Default)]
 pub struct TrianglePackets {
     packets: Vec<[[f32x4; 3]; 3]>,
+    /// Per packet, whether any lane holds a triangle (so leaves of other
+    /// primitives skip the test).
+    any: Vec<bool>,
 }
 
 impl TrianglePackets {
@@ -29,6 +32,10 @@ impl TrianglePackets {
     pub fn new(tris: impl ExactSizeIterator<Item = Option<[Vec3; 3]>>) -> Self {
         let mut lanes: Vec<[Vec3; 3]> = tris.map(|t| t.unwrap_or([Vec3::NAN; 3])).collect();
         lanes.resize(lanes.len().div_ceil(4) * 4, [Vec3::NAN; 3]);
+        let any = lanes
+            .chunks_exact(4)
+            .map(|quad| quad.iter().any(|t| !t[0].is_nan()))
+            .collect();
         let packets = lanes
             .chunks_exact(4)
             .map(|quad| {
@@ -39,7 +46,7 @@ impl TrianglePackets {
                 })
             })
             .collect();
-        Self { packets }
+        Self { packets, any }
     }
 
     /// Bytes held.
@@ -143,6 +150,9 @@ impl WatertightRay {
         t_max: f32,
     ) -> Option<(usize, PrimHit)> {
         debug_assert!(start.is_multiple_of(4) && count <= 4);
+        if !p.any[start / 4] {
+            return None;
+        }
         let packet = &p.packets[start / 4];
         let [kx, ky, kz] = self.k;
         let (ox, oy, oz) = (
