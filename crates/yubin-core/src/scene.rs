@@ -20,6 +20,7 @@ use crate::sampler::{Independent, Sampler};
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
 use crate::Rgb;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// What a shape is made of and whether it emits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -551,7 +552,7 @@ impl SceneBuilder {
         for gi in (1..groups.len()).chain(std::iter::once(0)) {
             let bounds: Vec<Bounds3> = groups[gi]
                 .items
-                .iter()
+                .par_iter()
                 .map(|item| match *item {
                     Item::Triangle { shape, prim } | Item::Prim { shape, prim } => {
                         self.shapes[shape as usize].prim_bounds(&self.meshes, prim)

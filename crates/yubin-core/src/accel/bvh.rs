@@ -162,8 +162,9 @@ impl Bvh {
     /// Builds over the given primitive bounds. Empty bounds (degenerate or
     /// absent primitives) are left out.
     pub fn build(bounds: &[Bounds3]) -> Self {
+        use rayon::prelude::*;
         let mut prims: Vec<BuildPrim> = bounds
-            .iter()
+            .par_iter()
             .enumerate()
             .filter(|(_, b)| !b.is_empty() && b.min.is_finite() && b.max.is_finite())
             .map(|(i, b)| BuildPrim {
@@ -182,7 +183,8 @@ impl Bvh {
                 ..Self::default()
             };
         }
-        let root = build_recursive(&mut prims, 0, 0);
+        let extent = Extent::of(&prims);
+        let root = build_recursive(&mut prims, 0, 0, extent);
         let mut bvh = Self {
             nodes: Vec::with_capacity(prims.len() / 2 + 1),
             prims: prims.iter().map(|p| p.index).collect(),
@@ -254,8 +256,10 @@ impl Bvh {
             };
             return leaf_code(*start, *count);
         };
-        let mut kids: Vec<&BuildNode> = vec![&children[0], &children[1]];
-        // Open the largest inner child until there are four.
+        let mut kids: ArrayVec<&BuildNode, WIDTH> = ArrayVec::new();
+        kids.push(&children[0]);
+        kids.push(&children[1]);
+        // Open the largest inner child until there are WIDTH.
         while kids.len() < WIDTH {
             let Some((i, _)) = kids
                 .iter()
@@ -405,88 +409,149 @@ impl Bvh {
     }
 }
 
-fn build_recursive(prims: &mut [BuildPrim], start: usize, depth: usize) -> BuildNode {
-    let bounds = prims.iter().fold(Bounds3::EMPTY, |b, p| b.union(p.bounds));
+/// The boxes around a set of primitives and around their centroids.
+#[derive(Clone, Copy)]
+struct Extent {
+    bounds: Bounds3,
+    centroids: Bounds3,
+}
+
+impl Extent {
+    const EMPTY: Self = Self {
+        bounds: Bounds3::EMPTY,
+        centroids: Bounds3::EMPTY,
+    };
+
+    fn of(prims: &[BuildPrim]) -> Self {
+        if prims.len() > PARALLEL_BINNING {
+            use rayon::prelude::*;
+            return prims
+                .par_chunks(BINNING_CHUNK)
+                .map(Self::of)
+                .reduce(|| Self::EMPTY, Self::union);
+        }
+        prims.iter().fold(Self::EMPTY, |e, p| Self {
+            bounds: e.bounds.union(p.bounds),
+            centroids: e.centroids.union_point(p.centroid),
+        })
+    }
+
+    fn union(self, o: Self) -> Self {
+        Self {
+            bounds: self.bounds.union(o.bounds),
+            centroids: self.centroids.union(o.centroids),
+        }
+    }
+}
+
+/// Nodes with more primitives than this bin in parallel chunks.
+const PARALLEL_BINNING: usize = 1 << 16;
+const BINNING_CHUNK: usize = 1 << 14;
+
+/// `extent` is that of `prims`, computed by the parent's binning, so each
+/// level reads the primitives twice (bin, partition) instead of four times.
+fn build_recursive(
+    prims: &mut [BuildPrim],
+    start: usize,
+    depth: usize,
+    extent: Extent,
+) -> BuildNode {
     let leaf = BuildNode::Leaf {
-        bounds,
+        bounds: extent.bounds,
         start,
         count: prims.len(),
     };
     if prims.len() <= 1 {
         return leaf;
     }
-    let centroids = prims
-        .iter()
-        .fold(Bounds3::EMPTY, |b, p| b.union_point(p.centroid));
     let split = if depth < MAX_SAH_DEPTH {
-        choose_split(prims, &bounds, &centroids)
+        choose_split(prims, &extent)
     } else {
-        split_in_middle(prims, centroids.max_axis())
+        split_in_middle(prims, extent.centroids.max_axis())
     };
-    let Some((_, mid)) = split else {
+    let Some((mid, left_extent, right_extent)) = split else {
         return leaf;
     };
     let (left, right) = prims.split_at_mut(mid);
     let children = if left.len() + right.len() > PARALLEL_THRESHOLD {
         rayon::join(
-            || build_recursive(left, start, depth + 1),
-            || build_recursive(right, start + mid, depth + 1),
+            || build_recursive(left, start, depth + 1, left_extent),
+            || build_recursive(right, start + mid, depth + 1, right_extent),
         )
     } else {
         (
-            build_recursive(left, start, depth + 1),
-            build_recursive(right, start + mid, depth + 1),
+            build_recursive(left, start, depth + 1, left_extent),
+            build_recursive(right, start + mid, depth + 1, right_extent),
         )
     };
     BuildNode::Inner {
-        bounds,
+        bounds: extent.bounds,
         children: Box::new([children.0, children.1]),
     }
 }
 
+type Bins = [(Extent, usize); BINS];
+
+fn bin(prims: &[BuildPrim], axis: usize, bin_of: &(impl Fn(f32) -> usize + Sync)) -> Bins {
+    if prims.len() > PARALLEL_BINNING {
+        use rayon::prelude::*;
+        return prims
+            .par_chunks(BINNING_CHUNK)
+            .map(|c| bin(c, axis, bin_of))
+            .reduce(
+                || [(Extent::EMPTY, 0); BINS],
+                |mut a, b| {
+                    for (x, y) in a.iter_mut().zip(b) {
+                        *x = (x.0.union(y.0), x.1 + y.1);
+                    }
+                    a
+                },
+            );
+    }
+    let mut bins = [(Extent::EMPTY, 0usize); BINS];
+    for p in prims {
+        let b = &mut bins[bin_of(p.centroid[axis])];
+        b.0.bounds = b.0.bounds.union(p.bounds);
+        b.0.centroids = b.0.centroids.union_point(p.centroid);
+        b.1 += 1;
+    }
+    bins
+}
+
 /// Picks the SAH-best binned split over the widest centroid axis and
-/// partitions `prims` around it; `None` means "make a leaf".
-fn choose_split(
-    prims: &mut [BuildPrim],
-    bounds: &Bounds3,
-    centroids: &Bounds3,
-) -> Option<(usize, usize)> {
+/// partitions `prims` around it: the split position and both sides'
+/// extents; `None` means "make a leaf".
+fn choose_split(prims: &mut [BuildPrim], extent: &Extent) -> Option<(usize, Extent, Extent)> {
+    let centroids = &extent.centroids;
     let axis = centroids.max_axis();
     let (lo, hi) = (centroids.min[axis], centroids.max[axis]);
     if hi <= lo {
         return split_in_middle(prims, axis);
     }
     let scale = BINS as f32 / (hi - lo);
-    let bin_of = |c: f32| (((c - lo) * scale) as usize).min(BINS - 1);
-    let mut bins = [(Bounds3::EMPTY, 0usize); BINS];
-    for p in prims.iter() {
-        let b = &mut bins[bin_of(p.centroid[axis])];
-        b.0 = b.0.union(p.bounds);
-        b.1 += 1;
-    }
-    // Sweep from the right to get suffix areas and counts, then from the left.
-    let mut right_area = [0.0f32; BINS];
-    let (mut acc, mut acc_n) = (Bounds3::EMPTY, 0);
-    let mut right_count = [0usize; BINS];
+    let bin_of = move |c: f32| (((c - lo) * scale) as usize).min(BINS - 1);
+    let bins = bin(prims, axis, &bin_of);
+    // Sweep from the right to get suffix extents, then from the left.
+    let mut right = [(Extent::EMPTY, 0usize); BINS];
+    let mut acc = (Extent::EMPTY, 0);
     for i in (1..BINS).rev() {
-        acc = acc.union(bins[i].0);
-        acc_n += bins[i].1;
-        right_area[i] = acc.surface_area();
-        right_count[i] = acc_n;
+        acc = (acc.0.union(bins[i].0), acc.1 + bins[i].1);
+        right[i] = acc;
     }
     let (mut best_cost, mut best_split) = (f32::INFINITY, 0);
-    let (mut left, mut left_n) = (Bounds3::EMPTY, 0);
+    let mut left = (Extent::EMPTY, 0);
+    let mut left_at = [(Extent::EMPTY, 0usize); BINS];
     for i in 0..BINS - 1 {
-        left = left.union(bins[i].0);
-        left_n += bins[i].1;
-        let cost =
-            left_n as f32 * left.surface_area() + right_count[i + 1] as f32 * right_area[i + 1];
+        left = (left.0.union(bins[i].0), left.1 + bins[i].1);
+        left_at[i + 1] = left;
+        let cost = left.1 as f32 * left.0.bounds.surface_area()
+            + right[i + 1].1 as f32 * right[i + 1].0.bounds.surface_area();
         if cost < best_cost {
             best_cost = cost;
             best_split = i + 1;
         }
     }
-    let parent_area = bounds.surface_area().max(f32::MIN_POSITIVE);
+    let parent_area = extent.bounds.surface_area().max(f32::MIN_POSITIVE);
     let split_cost = TRAVERSAL_COST + INTERSECT_COST * best_cost / parent_area;
     let leaf_cost = INTERSECT_COST * prims.len() as f32;
     if prims.len() <= MAX_LEAF && split_cost >= leaf_cost {
@@ -496,16 +561,16 @@ fn choose_split(
     if mid == 0 || mid == prims.len() {
         return split_in_middle(prims, axis);
     }
-    Some((axis, mid))
+    Some((mid, left_at[best_split].0, right[best_split].0))
 }
 
-fn split_in_middle(prims: &mut [BuildPrim], axis: usize) -> Option<(usize, usize)> {
+fn split_in_middle(prims: &mut [BuildPrim], axis: usize) -> Option<(usize, Extent, Extent)> {
     if prims.len() <= MAX_LEAF {
         return None;
     }
     let mid = prims.len() / 2;
     prims.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
-    Some((axis, mid))
+    Some((mid, Extent::of(&prims[..mid]), Extent::of(&prims[mid..])))
 }
 
 fn partition(prims: &mut [BuildPrim], pred: impl Fn(&BuildPrim) -> bool) -> usize {
