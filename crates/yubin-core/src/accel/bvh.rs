@@ -21,7 +21,9 @@ const WIDTH: usize = 8;
 
 const BINS: usize = 16;
 const MAX_LEAF: usize = 4;
-/// Cost of a ray–primitive test relative to a ray–box test.
+/// Default cost of a primitive test relative to a node visit, for
+/// [`Bvh::build`]; [`Bvh::build_with_costs`] takes one per primitive (a
+/// triangle in a 4-wide packet costs far less than an analytic shape).
 const INTERSECT_COST: f32 = 0.3;
 const TRAVERSAL_COST: f32 = 1.0;
 const PARALLEL_THRESHOLD: usize = 4096;
@@ -78,6 +80,7 @@ struct BuildPrim {
     bounds: Bounds3,
     centroid: Vec3,
     index: u32,
+    cost: f32,
 }
 
 enum BuildNode {
@@ -162,6 +165,12 @@ impl Bvh {
     /// Builds over the given primitive bounds. Empty bounds (degenerate or
     /// absent primitives) are left out.
     pub fn build(bounds: &[Bounds3]) -> Self {
+        Self::build_with_costs(bounds, |_| INTERSECT_COST)
+    }
+
+    /// Like [`Bvh::build`], with `cost(i)` the expected cost of testing
+    /// primitive `i` relative to visiting a node, for the SAH.
+    pub fn build_with_costs(bounds: &[Bounds3], cost: impl Fn(usize) -> f32 + Sync) -> Self {
         use rayon::prelude::*;
         let mut prims: Vec<BuildPrim> = bounds
             .par_iter()
@@ -171,6 +180,7 @@ impl Bvh {
                 bounds: *b,
                 centroid: b.center(),
                 index: i as u32,
+                cost: cost(i),
             })
             .collect();
         debug_assert!(
@@ -490,7 +500,8 @@ fn build_recursive(
     }
 }
 
-type Bins = [(Extent, usize); BINS];
+/// Per bin: the extent of its primitives and the sum of their costs.
+type Bins = [(Extent, f32); BINS];
 
 fn bin(prims: &[BuildPrim], axis: usize, bin_of: &(impl Fn(f32) -> usize + Sync)) -> Bins {
     if prims.len() > PARALLEL_BINNING {
@@ -499,7 +510,7 @@ fn bin(prims: &[BuildPrim], axis: usize, bin_of: &(impl Fn(f32) -> usize + Sync)
             .par_chunks(BINNING_CHUNK)
             .map(|c| bin(c, axis, bin_of))
             .reduce(
-                || [(Extent::EMPTY, 0); BINS],
+                || [(Extent::EMPTY, 0.0); BINS],
                 |mut a, b| {
                     for (x, y) in a.iter_mut().zip(b) {
                         *x = (x.0.union(y.0), x.1 + y.1);
@@ -508,12 +519,12 @@ fn bin(prims: &[BuildPrim], axis: usize, bin_of: &(impl Fn(f32) -> usize + Sync)
                 },
             );
     }
-    let mut bins = [(Extent::EMPTY, 0usize); BINS];
+    let mut bins = [(Extent::EMPTY, 0.0f32); BINS];
     for p in prims {
         let b = &mut bins[bin_of(p.centroid[axis])];
         b.0.bounds = b.0.bounds.union(p.bounds);
         b.0.centroids = b.0.centroids.union_point(p.centroid);
-        b.1 += 1;
+        b.1 += p.cost;
     }
     bins
 }
@@ -532,28 +543,28 @@ fn choose_split(prims: &mut [BuildPrim], extent: &Extent) -> Option<(usize, Exte
     let bin_of = move |c: f32| (((c - lo) * scale) as usize).min(BINS - 1);
     let bins = bin(prims, axis, &bin_of);
     // Sweep from the right to get suffix extents, then from the left.
-    let mut right = [(Extent::EMPTY, 0usize); BINS];
-    let mut acc = (Extent::EMPTY, 0);
+    let mut right = [(Extent::EMPTY, 0.0f32); BINS];
+    let mut acc = (Extent::EMPTY, 0.0);
     for i in (1..BINS).rev() {
         acc = (acc.0.union(bins[i].0), acc.1 + bins[i].1);
         right[i] = acc;
     }
     let (mut best_cost, mut best_split) = (f32::INFINITY, 0);
-    let mut left = (Extent::EMPTY, 0);
-    let mut left_at = [(Extent::EMPTY, 0usize); BINS];
+    let mut left = (Extent::EMPTY, 0.0);
+    let mut left_at = [(Extent::EMPTY, 0.0f32); BINS];
     for i in 0..BINS - 1 {
         left = (left.0.union(bins[i].0), left.1 + bins[i].1);
         left_at[i + 1] = left;
-        let cost = left.1 as f32 * left.0.bounds.surface_area()
-            + right[i + 1].1 as f32 * right[i + 1].0.bounds.surface_area();
+        let cost = left.1 * left.0.bounds.surface_area()
+            + right[i + 1].1 * right[i + 1].0.bounds.surface_area();
         if cost < best_cost {
             best_cost = cost;
             best_split = i + 1;
         }
     }
     let parent_area = extent.bounds.surface_area().max(f32::MIN_POSITIVE);
-    let split_cost = TRAVERSAL_COST + INTERSECT_COST * best_cost / parent_area;
-    let leaf_cost = INTERSECT_COST * prims.len() as f32;
+    let split_cost = TRAVERSAL_COST + best_cost / parent_area;
+    let leaf_cost: f32 = bins.iter().map(|b| b.1).sum();
     if prims.len() <= MAX_LEAF && split_cost >= leaf_cost {
         return None;
     }
