@@ -301,36 +301,71 @@ fn pool(threads: usize) -> Result<rayon::ThreadPool> {
         .build()?)
 }
 
-fn trace_closest(
+/// The per-chunk call of one query (closest hit or any-hit).
+type Query<T> = fn(&dyn Tracer, &[BenchRay], &mut [T], bool);
+
+fn closest_query(t: &dyn Tracer, r: &[BenchRay], o: &mut [Hit], coherent: bool) {
+    t.closest(r, o, coherent)
+}
+
+fn occluded_query(t: &dyn Tracer, r: &[BenchRay], o: &mut [bool], coherent: bool) {
+    t.occluded(r, o, coherent)
+}
+
+/// One timed pass of `query` over all rays, in chunks on `pool`.
+fn trace<T: Send>(
     pool: &rayon::ThreadPool,
     t: &dyn Tracer,
     rays: &[BenchRay],
-    out: &mut [Hit],
+    out: &mut [T],
     coherent: bool,
+    query: Query<T>,
 ) -> Duration {
     let t0 = Instant::now();
     pool.install(|| {
         out.par_chunks_mut(CHUNK)
             .zip(rays.par_chunks(CHUNK))
-            .for_each(|(o, r)| t.closest(r, o, coherent));
+            .for_each(|(o, r)| query(t, r, o, coherent));
     });
     t0.elapsed()
 }
 
-fn trace_occluded(
+/// Times `query` for every backend on `threads` threads. The 1-thread
+/// results are kept in `first`; 2-thread results are compared with them
+/// and the differences added to `thread_diff`.
+#[allow(clippy::too_many_arguments)]
+fn time_query<T: Clone + PartialEq + Send>(
+    opts: &Options,
+    log: &mut Log,
     pool: &rayon::ThreadPool,
-    t: &dyn Tracer,
+    tracers: &[(Backend, Box<dyn Tracer>)],
     rays: &[BenchRay],
-    out: &mut [bool],
     coherent: bool,
-) -> Duration {
-    let t0 = Instant::now();
-    pool.install(|| {
-        out.par_chunks_mut(CHUNK)
-            .zip(rays.par_chunks(CHUNK))
-            .for_each(|(o, r)| t.occluded(r, o, coherent));
-    });
-    t0.elapsed()
+    (fill, query): (T, Query<T>),
+    threads: usize,
+    first: &mut [Vec<T>],
+    thread_diff: &mut usize,
+) -> (Vec<Measurement>, Option<f64>) {
+    let n = rays.len();
+    let mut outs = vec![vec![fill; n]; tracers.len()];
+    let result = {
+        let mut passes: Vec<Pass<'_>> = tracers
+            .iter()
+            .zip(outs.iter_mut())
+            .map(|((_, t), out)| {
+                Box::new(move || trace(pool, t.as_ref(), rays, out, coherent, query)) as Pass<'_>
+            })
+            .collect();
+        measure(opts, log, n, &mut passes)
+    };
+    for (bi, out) in outs.into_iter().enumerate() {
+        if threads == 1 {
+            first[bi] = out;
+        } else {
+            *thread_diff += first[bi].iter().zip(&out).filter(|(a, b)| a != b).count();
+        }
+    }
+    result
 }
 
 /// Waits for a quiet machine if asked to; logs waits.
@@ -584,48 +619,33 @@ fn bench_mesh(
             for threads in [1usize, 2] {
                 let p = if threads == 1 { pool1 } else { pool2 };
                 let (ms, paired) = if qi == 0 {
-                    let mut outs = vec![vec![Hit::MISS; n]; tracers.len()];
-                    let result = {
-                        let mut passes: Vec<Pass<'_>> = tracers
-                            .iter()
-                            .zip(outs.iter_mut())
-                            .map(|((_, t), out)| {
-                                Box::new(move || trace_closest(p, t.as_ref(), rays, out, coherent))
-                                    as Pass<'_>
-                            })
-                            .collect();
-                        measure(opts, log, n, &mut passes)
-                    };
-                    for (bi, out) in outs.into_iter().enumerate() {
-                        if threads == 1 {
-                            closest[bi] = out;
-                        } else {
-                            thread_diff +=
-                                closest[bi].iter().zip(&out).filter(|(a, b)| a != b).count();
-                        }
-                    }
-                    result
+                    let q = (Hit::MISS, closest_query as Query<Hit>);
+                    time_query(
+                        opts,
+                        log,
+                        p,
+                        &tracers,
+                        rays,
+                        coherent,
+                        q,
+                        threads,
+                        &mut closest,
+                        &mut thread_diff,
+                    )
                 } else {
-                    let mut outs = vec![vec![false; n]; tracers.len()];
-                    let result = {
-                        let mut passes: Vec<Pass<'_>> = tracers
-                            .iter()
-                            .zip(outs.iter_mut())
-                            .map(|((_, t), out)| {
-                                Box::new(move || trace_occluded(p, t.as_ref(), rays, out, coherent))
-                                    as Pass<'_>
-                            })
-                            .collect();
-                        measure(opts, log, n, &mut passes)
-                    };
-                    for (bi, out) in outs.into_iter().enumerate() {
-                        if threads == 1 {
-                            any[bi] = out;
-                        } else {
-                            thread_diff += any[bi].iter().zip(&out).filter(|(a, b)| a != b).count();
-                        }
-                    }
-                    result
+                    let q = (false, occluded_query as Query<bool>);
+                    time_query(
+                        opts,
+                        log,
+                        p,
+                        &tracers,
+                        rays,
+                        coherent,
+                        q,
+                        threads,
+                        &mut any,
+                        &mut thread_diff,
+                    )
                 };
                 for ((backend, _), m) in tracers.iter().zip(ms) {
                     log.say(format!(

@@ -15,7 +15,9 @@
 //! In object space the cylinder is x² + y² = 1, 0 ≤ z ≤ 1; uv = (φ/2π, z).
 //! The builder folds p0, p1 and radius into `to_world`.
 
-use super::{make_interaction, world_normal, PositionSample, PrimHit, ShapeModel, TriangleMesh};
+use super::{
+    azimuth, make_interaction, world_normal, PositionSample, PrimHit, ShapeModel, TriangleMesh,
+};
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
 use glam::{Vec2, Vec3};
@@ -94,10 +96,7 @@ impl ShapeModel for Cylinder {
         hit: PrimHit,
     ) -> SurfaceInteraction {
         let local = self.to_world.inv.transform_point3(ray.at(hit.t));
-        let mut phi = local.y.atan2(local.x);
-        if phi < 0.0 {
-            phi += 2.0 * PI;
-        }
+        let phi = azimuth(local.x, local.y);
         let (sin_p, cos_p) = phi.sin_cos();
         let on_surface = Vec3::new(cos_p, sin_p, local.z.clamp(0.0, 1.0));
         let p = self.to_world.point(on_surface);

@@ -14,8 +14,8 @@
 //! object space and hence in world space.
 
 use super::{
-    intersect_local_plane, make_interaction, unit_square_bounds, world_normal, PositionSample,
-    PrimHit, ShapeModel, TriangleMesh,
+    azimuth, intersect_local_plane, make_interaction, unit_square_bounds, world_normal,
+    PositionSample, PrimHit, ShapeModel, TriangleMesh,
 };
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
@@ -62,10 +62,7 @@ impl ShapeModel for Disk {
     ) -> SurfaceInteraction {
         let local = hit.uv;
         let r = local.length();
-        let mut phi = local.y.atan2(local.x);
-        if phi < 0.0 {
-            phi += 2.0 * PI;
-        }
+        let phi = azimuth(local.x, local.y);
         let (sin_p, cos_p) = phi.sin_cos();
         let p = self.to_world.point(local.extend(0.0));
         let dpdu = self.to_world.vector(Vec3::new(cos_p, sin_p, 0.0));

@@ -194,6 +194,18 @@ impl ShapeModel for Shape {
     }
 }
 
+/// The angle of (x, y) around +z in [0, 2π): the φ of Mitsuba's sphere,
+/// disk and cylinder parameterizations.
+#[inline]
+pub(crate) fn azimuth(x: f32, y: f32) -> f32 {
+    let phi = y.atan2(x);
+    if phi < 0.0 {
+        phi + 2.0 * std::f32::consts::PI
+    } else {
+        phi
+    }
+}
+
 /// Where `ray` meets the z = 0 plane of the object space of `to_world`:
 /// the ray parameter and the local (x, y), when inside the ray's interval.
 /// Shared by the planar shapes (`rectangle`, `disk`).

@@ -18,7 +18,7 @@
 //! ("Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems).
 
 use super::{
-    area_to_solid_angle, make_interaction, PositionSample, PrimHit, ShapeDirectionSample,
+    area_to_solid_angle, azimuth, make_interaction, PositionSample, PrimHit, ShapeDirectionSample,
     ShapeModel, TriangleMesh,
 };
 use crate::interaction::SurfaceInteraction;
@@ -111,10 +111,7 @@ impl ShapeModel for Sphere {
         // Re-project onto the surface to undo round-off in t.
         let p = self.center + outward * self.radius;
         let local = self.rotation.transpose() * outward;
-        let mut phi = local.y.atan2(local.x);
-        if phi < 0.0 {
-            phi += 2.0 * PI;
-        }
+        let phi = azimuth(local.x, local.y);
         let theta = local.z.clamp(-1.0, 1.0).acos();
         let uv = Vec2::new(phi / (2.0 * PI), theta / PI);
         let r = self.radius;
