@@ -19,7 +19,6 @@ use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
 use crate::Rgb;
-use glam::Vec3;
 use rayon::prelude::*;
 
 /// What a shape is made of and whether it emits.
@@ -50,14 +49,58 @@ enum Item {
 
 #[derive(Clone, Debug, Default)]
 struct Group {
-    /// Items in BVH leaf order.
+    /// Items in BVH leaf order; empty when `only_triangles` (the packets
+    /// then say everything).
     items: Vec<Item>,
+    /// Per mesh shape, the first triangle id its triangles take in the
+    /// packets and their count: triangle id `first + prim` is `prim` of
+    /// `shape`. Sorted by `first`.
+    tri_runs: Vec<TriangleRun>,
     /// Vertices of `Item::Triangle` items, parallel to `items` (NaN for
     /// other items), packed for 4-wide tests.
     tris: TrianglePackets,
     /// No analytic shapes or instances: leaves need only the packet test.
     only_triangles: bool,
     bvh: Bvh,
+}
+
+/// The triangles of one mesh shape within a group.
+#[derive(Clone, Copy, Debug)]
+struct TriangleRun {
+    first: u32,
+    count: u32,
+    shape: u32,
+}
+
+impl Group {
+    /// Shape and primitive of the triangle with packet id `id`.
+    fn triangle(&self, id: u32) -> (u32, u32) {
+        let run = &self.tri_runs[self.tri_runs.partition_point(|r| r.first <= id) - 1];
+        (run.shape, id - run.first)
+    }
+
+    /// Every (shape, primitive) of the group's triangles and analytic
+    /// shapes (not its instances).
+    #[cfg(test)]
+    fn primitives(&self) -> Vec<(u32, u32)> {
+        let tris = self
+            .tri_runs
+            .iter()
+            .flat_map(|r| (0..r.count).map(move |p| (r.shape, p)));
+        let prims = self.items.iter().filter_map(|item| match *item {
+            Item::Prim { shape, prim } => Some((shape, prim)),
+            _ => None,
+        });
+        tris.chain(prims).collect()
+    }
+}
+
+/// The closest hit so far within one group.
+#[derive(Clone, Copy)]
+enum Closest {
+    /// A triangle: its packet id.
+    Triangle(u32, PrimHit),
+    Other(HitRecord),
 }
 
 /// One placement of a shape group.
@@ -124,6 +167,11 @@ impl Scene {
         Some(self.interaction(ray, &r, h))
     }
 
+    /// Shape of the top-level BVH (for benchmarks and tuning).
+    pub fn bvh_stats(&self) -> crate::accel::BvhStats {
+        self.groups[0].bvh.stats()
+    }
+
     /// Distance, shape and primitive of the closest hit, without computing
     /// the surface interaction (for ray-throughput benchmarks and tests).
     pub fn intersect_distance(&self, ray: &Ray) -> Option<(f32, u32, u32)> {
@@ -146,19 +194,16 @@ impl Scene {
         instance: Option<u32>,
     ) -> Option<HitRecord> {
         let wr = WatertightRay::new(ray);
-        let mut rec = None;
+        // A triangle hit keeps only its packet id: its shape and primitive
+        // are looked up once, after traversal.
+        let mut closest = None;
         g.bvh.closest_leaves(ray, |start, count, r| {
             let mut r = *r;
             let mut best = None;
             // The leaf's triangles, four at a time; other items are NaN lanes.
-            if let Some((lane, hit)) = wr.intersect4(&g.tris, start, count, r.t_max) {
-                if let Item::Triangle { shape, prim } = g.items[start + lane] {
-                    rec = Some(HitRecord {
-                        shape,
-                        prim,
-                        hit,
-                        instance,
-                    });
+            if g.only_triangles || g.tris.has_triangles(start) {
+                if let Some((lane, hit)) = wr.intersect4(&g.tris, start, count, r.t_max) {
+                    closest = Some(Closest::Triangle(g.tris.id(start + lane), hit));
                     r.t_max = hit.t;
                     best = Some(hit.t);
                 }
@@ -188,21 +233,34 @@ impl Scene {
                     }
                 };
                 if let Some(h) = h {
-                    rec = Some(h);
+                    closest = Some(Closest::Other(h));
                     r.t_max = h.hit.t;
                     best = Some(h.hit.t);
                 }
             }
             best
         });
-        rec
+        match closest? {
+            Closest::Other(rec) => Some(rec),
+            Closest::Triangle(id, hit) => {
+                let (shape, prim) = g.triangle(id);
+                Some(HitRecord {
+                    shape,
+                    prim,
+                    hit,
+                    instance,
+                })
+            }
+        }
     }
 
     /// True when any item of the group blocks the ray.
     fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
         let wr = WatertightRay::new(ray);
         g.bvh.any_leaves(ray, |start, count, r| {
-            if wr.intersect4(&g.tris, start, count, r.t_max).is_some() {
+            if (g.only_triangles || g.tris.has_triangles(start))
+                && wr.intersect4(&g.tris, start, count, r.t_max).is_some()
+            {
                 return true;
             }
             !g.only_triangles
@@ -309,14 +367,24 @@ fn instance_to_world(local: &SurfaceInteraction, t: &Transform) -> SurfaceIntera
 }
 
 /// The vertices of a triangle item (`None` for other items).
-fn triangle_of(shapes: &[Shape], meshes: &[TriangleMesh], item: &Item) -> Option<[Vec3; 3]> {
-    match *item {
-        Item::Triangle { shape, prim } => match shapes[shape as usize] {
-            Shape::Mesh(m) => Some(meshes[m.mesh as usize].triangle(prim as usize)),
-            _ => None,
-        },
-        _ => None,
+/// The runs of consecutive triangles of one mesh shape in a group's items
+/// (`add_shape_to` adds a mesh's triangles together, in order), numbered
+/// one after another.
+fn triangle_runs(items: &[Item]) -> Vec<TriangleRun> {
+    let mut runs: Vec<TriangleRun> = Vec::new();
+    for item in items {
+        if let Item::Triangle { shape, .. } = *item {
+            match runs.last_mut() {
+                Some(r) if r.shape == shape => r.count += 1,
+                _ => runs.push(TriangleRun {
+                    first: runs.last().map_or(0, |r| r.first + r.count),
+                    count: 1,
+                    shape,
+                }),
+            }
+        }
     }
+    runs
 }
 
 /// Errors from [`SceneBuilder::build`] and its methods.
@@ -543,6 +611,7 @@ impl SceneBuilder {
             .groups
             .into_iter()
             .map(|items| Group {
+                tri_runs: triangle_runs(&items),
                 items,
                 tris: TrianglePackets::default(),
                 only_triangles: false,
@@ -582,15 +651,29 @@ impl SceneBuilder {
                 .iter()
                 .map(|slot| slot.map_or(Item::Empty, |i| g.items[i as usize]))
                 .collect();
-            g.tris = TrianglePackets::new(
-                g.items
-                    .iter()
-                    .map(|item| triangle_of(&self.shapes, &self.meshes, item)),
-            );
+            let shapes = &self.shapes;
+            let meshes = &self.meshes;
+            let first_of: std::collections::HashMap<u32, u32> =
+                g.tri_runs.iter().map(|r| (r.shape, r.first)).collect();
+            g.tris = TrianglePackets::new(g.items.iter().map(|item| {
+                let Item::Triangle { shape, prim } = *item else {
+                    return None;
+                };
+                let Shape::Mesh(m) = shapes[shape as usize] else {
+                    return None;
+                };
+                Some((
+                    meshes[m.mesh as usize].triangle(prim as usize),
+                    first_of[&shape] + prim,
+                ))
+            }));
             g.only_triangles = g
                 .items
                 .iter()
                 .all(|item| matches!(item, Item::Triangle { .. } | Item::Empty));
+            if g.only_triangles {
+                g.items = Vec::new();
+            }
             g.bvh = bvh;
         }
         let environment_emitters = self
@@ -708,20 +791,15 @@ mod tests {
                 }
             }
         };
+        for (shape, prim) in scene.groups[0].primitives() {
+            consider(shape, prim, ray);
+        }
         for item in &scene.groups[0].items {
-            match *item {
-                Item::Triangle { shape, prim } | Item::Prim { shape, prim } => {
-                    consider(shape, prim, ray)
-                }
-                Item::Empty => {}
-                Item::Instance(i) => {
-                    let inst = &scene.instances[i as usize];
-                    let local = to_local_ray(ray, &inst.to_world);
-                    for it in &scene.groups[inst.group as usize].items {
-                        if let Item::Triangle { shape, prim } | Item::Prim { shape, prim } = *it {
-                            consider(shape, prim, &local);
-                        }
-                    }
+            if let Item::Instance(i) = *item {
+                let inst = &scene.instances[i as usize];
+                let local = to_local_ray(ray, &inst.to_world);
+                for (shape, prim) in scene.groups[inst.group as usize].primitives() {
+                    consider(shape, prim, &local);
                 }
             }
         }

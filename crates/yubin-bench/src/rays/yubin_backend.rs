@@ -65,10 +65,16 @@ pub fn build(
                 stats.build_2t.push(dt);
                 stats.accel_bytes = Some((retained + items).max(0) as usize);
                 stats.peak_build_bytes = Some(peak.max(0) as usize);
+                let shape = scene.bvh_stats();
                 stats.note = format!(
-                    "BVH {:.1} MiB (retained by `build`) + item list {:.1} MiB (retained by `add_shape`)",
+                    "BVH {:.1} MiB (retained by `build`) + item list {:.1} MiB (retained by `add_shape`); \
+                     {} nodes ({:.2} children each), {} leaves ({:.2} triangles each)",
                     super::mib(retained.max(0) as usize),
-                    super::mib(items.max(0) as usize)
+                    super::mib(items.max(0) as usize),
+                    shape.nodes,
+                    shape.child_slots as f64 / shape.nodes.max(1) as f64,
+                    shape.leaves,
+                    shape.leaf_prims as f64 / shape.leaves.max(1) as f64,
                 );
                 kept = Some(scene);
             }

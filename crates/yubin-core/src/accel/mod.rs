@@ -5,4 +5,4 @@
 
 mod bvh;
 
-pub use bvh::Bvh;
+pub use bvh::{Bvh, BvhStats};

@@ -15,35 +15,46 @@ use glam::{Vec2, Vec3};
 use wide::{f32x4, CmpEq, CmpGt, CmpLt};
 
 /// Triangles in packets of four, structure-of-arrays inside a packet
-/// (per vertex, per axis, four lanes), so that one 144-byte packet holds a
-/// whole BVH leaf and loads as SIMD lanes. Entries that are not triangles
-/// hold NaN, which no ray can hit.
+/// (per vertex, per axis, four lanes), so that one 160-byte packet holds a
+/// whole BVH leaf — vertices and the caller's triangle ids — and loads as
+/// SIMD lanes. Entries that are not triangles hold NaN, which no ray can
+/// hit.
 #[derive(Clone, Debug, Default)]
 pub struct TrianglePackets {
-    packets: Vec<[[f32x4; 3]; 3]>,
+    packets: Vec<Packet>,
     /// Per packet, whether any lane holds a triangle (so leaves of other
     /// primitives skip the test).
     any: Vec<bool>,
 }
 
+/// Four triangles and their ids. The ids sit beside the vertices so that
+/// a hit needs no further memory access to say which triangle it was.
+#[derive(Clone, Copy, Debug)]
+struct Packet {
+    v: [[f32x4; 3]; 3],
+    id: [u32; 4],
+}
+
 impl TrianglePackets {
-    /// Packs `tris` in order, four to a packet; `None` marks an entry that
-    /// is not a triangle (or padding).
-    pub fn new(tris: impl ExactSizeIterator<Item = Option<[Vec3; 3]>>) -> Self {
-        let mut lanes: Vec<[Vec3; 3]> = tris.map(|t| t.unwrap_or([Vec3::NAN; 3])).collect();
-        lanes.resize(lanes.len().div_ceil(4) * 4, [Vec3::NAN; 3]);
+    /// Packs `tris` (vertices and an id) in order, four to a packet;
+    /// `None` marks an entry that is not a triangle (or padding).
+    pub fn new(tris: impl ExactSizeIterator<Item = Option<([Vec3; 3], u32)>>) -> Self {
+        let mut lanes: Vec<([Vec3; 3], u32)> =
+            tris.map(|t| t.unwrap_or(([Vec3::NAN; 3], 0))).collect();
+        lanes.resize(lanes.len().div_ceil(4) * 4, ([Vec3::NAN; 3], 0));
         let any = lanes
             .chunks_exact(4)
-            .map(|quad| quad.iter().any(|t| !t[0].is_nan()))
+            .map(|quad| quad.iter().any(|t| !t.0[0].is_nan()))
             .collect();
         let packets = lanes
             .chunks_exact(4)
-            .map(|quad| {
-                std::array::from_fn(|v| {
+            .map(|quad| Packet {
+                v: std::array::from_fn(|v| {
                     std::array::from_fn(|axis| {
-                        f32x4::new(std::array::from_fn(|lane| quad[lane][v][axis]))
+                        f32x4::new(std::array::from_fn(|lane| quad[lane].0[v][axis]))
                     })
-                })
+                }),
+                id: std::array::from_fn(|lane| quad[lane].1),
             })
             .collect();
         Self { packets, any }
@@ -51,15 +62,28 @@ impl TrianglePackets {
 
     /// Bytes held.
     pub fn memory_bytes(&self) -> usize {
-        self.packets.capacity() * std::mem::size_of::<[[f32x4; 3]; 3]>()
+        self.packets.capacity() * std::mem::size_of::<Packet>() + self.any.capacity()
     }
 
-    /// The vertices of entry `i`.
+    /// The id given to [`TrianglePackets::new`] for entry `i`.
+    #[inline]
+    pub fn id(&self, i: usize) -> u32 {
+        self.packets[i / 4].id[i % 4]
+    }
+
+    /// Whether the packet holding position `start` has any triangle (a
+    /// leaf of analytic shapes only has none, and needs no packet test).
+    #[inline]
+    pub fn has_triangles(&self, start: usize) -> bool {
+        self.any[start / 4]
+    }
+
+    /// The vertices of entry `i` (NaN for one that is not a triangle).
     #[inline]
     pub fn vertices(&self, i: usize) -> [Vec3; 3] {
         let p = &self.packets[i / 4];
         std::array::from_fn(|v| {
-            Vec3::from_array(std::array::from_fn(|axis| p[v][axis].to_array()[i % 4]))
+            Vec3::from_array(std::array::from_fn(|axis| p.v[v][axis].to_array()[i % 4]))
         })
     }
 }
@@ -150,10 +174,7 @@ impl WatertightRay {
         t_max: f32,
     ) -> Option<(usize, PrimHit)> {
         debug_assert!(start.is_multiple_of(4) && count <= 4);
-        if !p.any[start / 4] {
-            return None;
-        }
-        let packet = &p.packets[start / 4];
+        let packet = &p.packets[start / 4].v;
         let [kx, ky, kz] = self.k;
         let (ox, oy, oz) = (
             f32x4::splat(self.o[kx]),
@@ -308,7 +329,7 @@ mod tests {
     #[test]
     fn four_wide_test_agrees_with_the_scalar_one() {
         let tris = octahedron_grid(6);
-        let packets = TrianglePackets::new(tris.iter().map(|t| Some(*t)));
+        let packets = TrianglePackets::new(tris.iter().map(|t| Some((*t, 0))));
         let mut rng = Pcg32::new(3, 4);
         let mut hits = 0;
         for _ in 0..4000 {
@@ -335,7 +356,7 @@ mod tests {
         }
         assert!(hits > 1000);
         // Non-triangle (NaN) entries are never hit.
-        let mixed = TrianglePackets::new([None, Some(tris[0]), None].into_iter());
+        let mixed = TrianglePackets::new([None, Some((tris[0], 7)), None].into_iter());
         let c = (tris[0][0] + tris[0][1] + tris[0][2]) / 3.0;
         let ray = Ray::new(c * 3.0, -c.normalize());
         assert_eq!(
@@ -344,6 +365,9 @@ mod tests {
                 .map(|h| h.0),
             Some(1)
         );
+        assert_eq!(mixed.id(1), 7);
+        assert!(mixed.has_triangles(0));
+        assert!(!TrianglePackets::new([None].into_iter()).has_triangles(0));
     }
 
     #[test]
