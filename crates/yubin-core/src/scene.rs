@@ -8,7 +8,7 @@
 //! instances (a transform and a group), so instanced geometry is stored
 //! once. Instances nest one level, as in Mitsuba.
 
-use crate::accel::Bvh;
+use crate::accel::{Bvh, PrimCost};
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::camera::{Camera, FovAxis, Perspective};
 use crate::film::Film;
@@ -641,9 +641,9 @@ impl SceneBuilder {
             // 4-wide packet; analytic shapes and instances cost more.
             let items = &groups[gi].items;
             let mut bvh = Bvh::build_with_costs(&bounds, |i| match items[i] {
-                Item::Triangle { .. } | Item::Empty => 0.3,
-                Item::Prim { .. } => 1.0,
-                Item::Instance(_) => 4.0,
+                Item::Triangle { .. } | Item::Empty => PrimCost::Packed,
+                Item::Prim { .. } => PrimCost::Alone(1.0),
+                Item::Instance(_) => PrimCost::Alone(4.0),
             });
             let g = &mut groups[gi];
             g.items = bvh

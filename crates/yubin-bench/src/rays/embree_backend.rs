@@ -71,7 +71,11 @@ impl Drop for EmbreeTracer {
 }
 
 fn new_device(threads: Option<usize>) -> Result<RTCDevice> {
-    let config = CString::new(threads.map_or(String::new(), |t| format!("threads={t}")))?;
+    // YUBIN_EMBREE_VERBOSE=2 makes Embree print its BVH statistics.
+    let verbose =
+        std::env::var("YUBIN_EMBREE_VERBOSE").map_or(String::new(), |v| format!("verbose={v},"));
+    let config =
+        CString::new(verbose + &threads.map_or(String::new(), |t| format!("threads={t}")))?;
     // SAFETY: a valid NUL-terminated config string.
     let device = unsafe { rtcNewDevice(config.as_ptr()) };
     if device.is_null() {

@@ -68,11 +68,12 @@ pub fn build(
                 let shape = scene.bvh_stats();
                 stats.note = format!(
                     "BVH {:.1} MiB (retained by `build`) + item list {:.1} MiB (retained by `add_shape`); \
-                     {} nodes ({:.2} children each), {} leaves ({:.2} triangles each)",
+                     {} nodes ({:.2} children each, histogram {:?}), {} leaves ({:.2} triangles each)",
                     super::mib(retained.max(0) as usize),
                     super::mib(items.max(0) as usize),
                     shape.nodes,
                     shape.child_slots as f64 / shape.nodes.max(1) as f64,
+                    shape.children_histogram,
                     shape.leaves,
                     shape.leaf_prims as f64 / shape.leaves.max(1) as f64,
                 );

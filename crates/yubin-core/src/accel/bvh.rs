@@ -22,9 +22,14 @@ const WIDTH: usize = 8;
 const BINS: usize = 16;
 const MAX_LEAF: usize = 4;
 /// Default cost of a primitive test relative to a node visit, for
-/// [`Bvh::build`]; [`Bvh::build_with_costs`] takes one per primitive (a
-/// triangle in a 4-wide packet costs far less than an analytic shape).
-const INTERSECT_COST: f32 = 0.3;
+/// [`Bvh::build`]; [`Bvh::build_with_costs`] takes one per primitive.
+const INTERSECT_COST: f32 = 1.0;
+/// Cost of one 4-wide packet test relative to a node visit: a leaf of
+/// [`PrimCost::Packed`] primitives pays it once per started group of four
+/// (the block-aware SAH of Wald et al. 2014, "Embree: A Kernel Framework
+/// for Efficient CPU Ray Tracing", §4.2), so the build favours full
+/// packets.
+const PACKET_COST: f32 = 1.0;
 const TRAVERSAL_COST: f32 = 1.0;
 const PARALLEL_THRESHOLD: usize = 4096;
 /// Traversal stack entries: an 8-wide node pushes at most 7 siblings per
@@ -89,6 +94,18 @@ pub struct BvhStats {
     pub leaf_prims: usize,
     /// Used child slots over all nodes (at most 8 per node).
     pub child_slots: usize,
+    /// Nodes by number of children (index 0 and 1 stay empty).
+    pub children_histogram: [usize; WIDTH + 1],
+}
+
+/// What testing one primitive costs, for the SAH.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PrimCost {
+    /// Tested four at a time with others of its kind (a triangle in a
+    /// SIMD packet).
+    Packed,
+    /// Tested on its own, at this cost relative to a node visit.
+    Alone(f32),
 }
 
 #[derive(Clone, Copy)]
@@ -96,18 +113,65 @@ struct BuildPrim {
     bounds: Bounds3,
     centroid: Vec3,
     index: u32,
-    cost: f32,
+    cost: PrimCost,
 }
 
+/// The summed test cost of a set of primitives.
+#[derive(Clone, Copy, Debug, Default)]
+struct Load {
+    alone: f32,
+    packed: u32,
+}
+
+impl Load {
+    #[inline]
+    fn add(self, cost: PrimCost) -> Self {
+        match cost {
+            PrimCost::Packed => Self {
+                packed: self.packed + 1,
+                ..self
+            },
+            PrimCost::Alone(c) => Self {
+                alone: self.alone + c,
+                ..self
+            },
+        }
+    }
+
+    #[inline]
+    fn union(self, o: Self) -> Self {
+        Self {
+            alone: self.alone + o.alone,
+            packed: self.packed + o.packed,
+        }
+    }
+
+    #[inline]
+    fn cost(self) -> f32 {
+        self.alone + self.packed.div_ceil(4) as f32 * PACKET_COST
+    }
+}
+
+/// A node of the binary SAH tree, which [`Bvh::collapse`] turns into
+/// 8-wide nodes.
 enum BuildNode {
     Leaf {
         bounds: Bounds3,
         start: usize,
         count: usize,
+        /// Surface area times the cost of testing the leaf.
+        cost: f32,
     },
     Inner {
         bounds: Bounds3,
         children: Box<[BuildNode; 2]>,
+        /// For `i` = 1..=8: the least SAH cost of this subtree when it may
+        /// fill at most `i` child slots of a wide node (index `i` − 1).
+        slot_cost: [f32; WIDTH],
+        /// How that least cost is reached: 0 when this node becomes a wide
+        /// node of its own (one slot), else how many of the `i` slots go to
+        /// the left child (the rest to the right).
+        slots_left: [u8; WIDTH],
     },
 }
 
@@ -115,6 +179,66 @@ impl BuildNode {
     fn bounds(&self) -> Bounds3 {
         match self {
             BuildNode::Leaf { bounds, .. } | BuildNode::Inner { bounds, .. } => *bounds,
+        }
+    }
+
+    /// Least SAH cost of the subtree in at most `slots` (1..=8) slots.
+    fn cost_in(&self, slots: usize) -> f32 {
+        match self {
+            BuildNode::Leaf { cost, .. } => *cost,
+            BuildNode::Inner { slot_cost, .. } => slot_cost[slots - 1],
+        }
+    }
+
+    /// An inner node over `children`, with the dynamic program of Ylitie,
+    /// Karras and Laine 2017 ("Efficient Incoherent Ray Traversal on GPUs
+    /// Through Compressed Wide BVHs", §3.1) that decides which binary
+    /// nodes become 8-wide nodes and which are opened into their parent:
+    /// the wide tree of least SAH cost, instead of a greedy grouping that
+    /// leaves many nodes with two children.
+    fn inner(bounds: Bounds3, children: [BuildNode; 2]) -> Self {
+        let [left, right] = &children;
+        // spread[j]: least cost of the two children in at most j slots.
+        let mut spread = [(f32::INFINITY, 0u8); WIDTH + 1];
+        for (j, entry) in spread.iter_mut().enumerate().skip(2) {
+            for k in 1..j {
+                let c = left.cost_in(k) + right.cost_in(j - k);
+                if c < entry.0 {
+                    *entry = (c, k as u8);
+                }
+            }
+        }
+        let as_node = bounds.surface_area() * TRAVERSAL_COST + spread[WIDTH].0;
+        let mut slot_cost = [as_node; WIDTH];
+        let mut slots_left = [0u8; WIDTH];
+        for i in 2..=WIDTH {
+            if spread[i].0 < as_node {
+                slot_cost[i - 1] = spread[i].0;
+                slots_left[i - 1] = spread[i].1;
+            }
+        }
+        BuildNode::Inner {
+            bounds,
+            children: Box::new(children),
+            slot_cost,
+            slots_left,
+        }
+    }
+
+    /// The subtrees that fill at most `slots` child slots of a wide node,
+    /// as the dynamic program chose them.
+    fn fill<'a>(&'a self, slots: usize, out: &mut ArrayVec<&'a BuildNode, WIDTH>) {
+        match self {
+            BuildNode::Inner {
+                children,
+                slots_left,
+                ..
+            } if slots_left[slots - 1] != 0 => {
+                let k = slots_left[slots - 1] as usize;
+                children[0].fill(k, out);
+                children[1].fill(slots - k, out);
+            }
+            _ => out.push(self),
         }
     }
 }
@@ -197,12 +321,12 @@ impl Bvh {
     /// Builds over the given primitive bounds. Empty bounds (degenerate or
     /// absent primitives) are left out.
     pub fn build(bounds: &[Bounds3]) -> Self {
-        Self::build_with_costs(bounds, |_| INTERSECT_COST)
+        Self::build_with_costs(bounds, |_| PrimCost::Alone(INTERSECT_COST))
     }
 
     /// Like [`Bvh::build`], with `cost(i)` the expected cost of testing
     /// primitive `i` relative to visiting a node, for the SAH.
-    pub fn build_with_costs(bounds: &[Bounds3], cost: impl Fn(usize) -> f32 + Sync) -> Self {
+    pub fn build_with_costs(bounds: &[Bounds3], cost: impl Fn(usize) -> PrimCost + Sync) -> Self {
         use rayon::prelude::*;
         let mut prims: Vec<BuildPrim> = bounds
             .par_iter()
@@ -300,7 +424,9 @@ impl Bvh {
         count(self.root);
         for n in &self.nodes {
             n.child.iter().for_each(|&c| count(c));
-            st.child_slots += n.child.iter().filter(|&&c| c != EMPTY).count();
+            let used = n.child.iter().filter(|&&c| c != EMPTY).count();
+            st.child_slots += used;
+            st.children_histogram[used] += 1;
         }
         st
     }
@@ -312,35 +438,20 @@ impl Bvh {
 
     /// Turns a binary subtree into 8-wide nodes; returns its child code.
     fn collapse(&mut self, node: &BuildNode) -> u32 {
-        let BuildNode::Inner { children, .. } = node else {
-            let BuildNode::Leaf { start, count, .. } = node else {
-                unreachable!()
-            };
-            return leaf_code(*start, *count);
+        let (children, slots_left) = match node {
+            BuildNode::Leaf { start, count, .. } => return leaf_code(*start, *count),
+            BuildNode::Inner {
+                children,
+                slots_left,
+                ..
+            } => (children, slots_left),
         };
+        // A wide node's slots: the eight-slot choice of the dynamic program
+        // (never "one slot", which is this node itself).
+        let k = (slots_left[WIDTH - 1] as usize).clamp(1, WIDTH - 1);
         let mut kids: ArrayVec<&BuildNode, WIDTH> = ArrayVec::new();
-        kids.push(&children[0]);
-        kids.push(&children[1]);
-        // Open the largest inner child until there are WIDTH.
-        while kids.len() < WIDTH {
-            let Some((i, _)) = kids
-                .iter()
-                .enumerate()
-                .filter(|(_, k)| matches!(k, BuildNode::Inner { .. }))
-                .max_by(|a, b| {
-                    a.1.bounds()
-                        .surface_area()
-                        .total_cmp(&b.1.bounds().surface_area())
-                })
-            else {
-                break;
-            };
-            let BuildNode::Inner { children, .. } = kids[i] else {
-                break;
-            };
-            kids[i] = &children[0];
-            kids.insert(i + 1, &children[1]);
-        }
+        children[0].fill(k, &mut kids);
+        children[1].fill(WIDTH - k, &mut kids);
         let index = self.nodes.len();
         self.nodes.push(Node::EMPTY);
         let mut node4 = Node::EMPTY;
@@ -583,6 +694,11 @@ fn build_recursive(
         bounds: extent.bounds,
         start,
         count: prims.len(),
+        cost: extent.bounds.surface_area()
+            * prims
+                .iter()
+                .fold(Load::default(), |l, p| l.add(p.cost))
+                .cost(),
     };
     if prims.len() <= 1 {
         return leaf;
@@ -607,14 +723,11 @@ fn build_recursive(
             build_recursive(right, start + mid, depth + 1, right_extent),
         )
     };
-    BuildNode::Inner {
-        bounds: extent.bounds,
-        children: Box::new([children.0, children.1]),
-    }
+    BuildNode::inner(extent.bounds, [children.0, children.1])
 }
 
 /// Per bin: the extent of its primitives and the sum of their costs.
-type Bins = [(Extent, f32); BINS];
+type Bins = [(Extent, Load); BINS];
 
 fn bin(prims: &[BuildPrim], axis: usize, bin_of: &(impl Fn(f32) -> usize + Sync)) -> Bins {
     if prims.len() > PARALLEL_BINNING {
@@ -623,21 +736,21 @@ fn bin(prims: &[BuildPrim], axis: usize, bin_of: &(impl Fn(f32) -> usize + Sync)
             .par_chunks(BINNING_CHUNK)
             .map(|c| bin(c, axis, bin_of))
             .reduce(
-                || [(Extent::EMPTY, 0.0); BINS],
+                || [(Extent::EMPTY, Load::default()); BINS],
                 |mut a, b| {
                     for (x, y) in a.iter_mut().zip(b) {
-                        *x = (x.0.union(y.0), x.1 + y.1);
+                        *x = (x.0.union(y.0), x.1.union(y.1));
                     }
                     a
                 },
             );
     }
-    let mut bins = [(Extent::EMPTY, 0.0f32); BINS];
+    let mut bins = [(Extent::EMPTY, Load::default()); BINS];
     for p in prims {
         let b = &mut bins[bin_of(p.centroid[axis])];
         b.0.bounds = b.0.bounds.union(p.bounds);
         b.0.centroids = b.0.centroids.union_point(p.centroid);
-        b.1 += p.cost;
+        b.1 = b.1.add(p.cost);
     }
     bins
 }
@@ -656,20 +769,20 @@ fn choose_split(prims: &mut [BuildPrim], extent: &Extent) -> Option<(usize, Exte
     let bin_of = move |c: f32| (((c - lo) * scale) as usize).min(BINS - 1);
     let bins = bin(prims, axis, &bin_of);
     // Sweep from the right to get suffix extents, then from the left.
-    let mut right = [(Extent::EMPTY, 0.0f32); BINS];
-    let mut acc = (Extent::EMPTY, 0.0);
+    let mut right = [(Extent::EMPTY, Load::default()); BINS];
+    let mut acc = (Extent::EMPTY, Load::default());
     for i in (1..BINS).rev() {
-        acc = (acc.0.union(bins[i].0), acc.1 + bins[i].1);
+        acc = (acc.0.union(bins[i].0), acc.1.union(bins[i].1));
         right[i] = acc;
     }
     let (mut best_cost, mut best_split) = (f32::INFINITY, 0);
-    let mut left = (Extent::EMPTY, 0.0);
-    let mut left_at = [(Extent::EMPTY, 0.0f32); BINS];
+    let mut left = (Extent::EMPTY, Load::default());
+    let mut left_at = [(Extent::EMPTY, Load::default()); BINS];
     for i in 0..BINS - 1 {
-        left = (left.0.union(bins[i].0), left.1 + bins[i].1);
+        left = (left.0.union(bins[i].0), left.1.union(bins[i].1));
         left_at[i + 1] = left;
-        let cost = left.1 * left.0.bounds.surface_area()
-            + right[i + 1].1 * right[i + 1].0.bounds.surface_area();
+        let cost = left.1.cost() * left.0.bounds.surface_area()
+            + right[i + 1].1.cost() * right[i + 1].0.bounds.surface_area();
         if cost < best_cost {
             best_cost = cost;
             best_split = i + 1;
@@ -677,7 +790,10 @@ fn choose_split(prims: &mut [BuildPrim], extent: &Extent) -> Option<(usize, Exte
     }
     let parent_area = extent.bounds.surface_area().max(f32::MIN_POSITIVE);
     let split_cost = TRAVERSAL_COST + best_cost / parent_area;
-    let leaf_cost: f32 = bins.iter().map(|b| b.1).sum();
+    let leaf_cost = bins
+        .iter()
+        .fold(Load::default(), |l, b| l.union(b.1))
+        .cost();
     if prims.len() <= MAX_LEAF && split_cost >= leaf_cost {
         return None;
     }

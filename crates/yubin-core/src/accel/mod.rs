@@ -5,4 +5,4 @@
 
 mod bvh;
 
-pub use bvh::{Bvh, BvhStats};
+pub use bvh::{Bvh, BvhStats, PrimCost};
