@@ -193,7 +193,9 @@ impl Scene {
         ray: &mut Ray,
         instance: Option<u32>,
     ) -> Option<HitRecord> {
-        let wr = WatertightRay::new(ray);
+        // Set up on the first leaf: many rays leave the scene after a few
+        // boxes and never need it.
+        let mut shear: Option<WatertightRay> = None;
         // A triangle hit keeps only its packet id: its shape and primitive
         // are looked up once, after traversal.
         let mut closest = None;
@@ -202,6 +204,7 @@ impl Scene {
             let mut best = None;
             // The leaf's triangles, four at a time; other items are NaN lanes.
             if g.only_triangles || g.tris.has_triangles(start) {
+                let wr = shear.get_or_insert_with(|| WatertightRay::new(&r));
                 if let Some((lane, hit)) = wr.intersect4(&g.tris, start, count, r.t_max) {
                     closest = Some(Closest::Triangle(g.tris.id(start + lane), hit));
                     r.t_max = hit.t;
@@ -256,10 +259,13 @@ impl Scene {
 
     /// True when any item of the group blocks the ray.
     fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
-        let wr = WatertightRay::new(ray);
+        let mut shear: Option<WatertightRay> = None;
         g.bvh.any_leaves(ray, |start, count, r| {
             if (g.only_triangles || g.tris.has_triangles(start))
-                && wr.intersect4(&g.tris, start, count, r.t_max).is_some()
+                && shear
+                    .get_or_insert_with(|| WatertightRay::new(r))
+                    .intersect4(&g.tris, start, count, r.t_max)
+                    .is_some()
             {
                 return true;
             }

@@ -104,13 +104,15 @@ impl WatertightRay {
     #[inline]
     pub fn new(ray: &Ray) -> Self {
         let d = ray.d;
-        let kz = d.abs().max_position();
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
+        let a = d.abs();
+        // The dominant axis, without branches (rays are incoherent, so
+        // branches on their direction mispredict).
+        let kz = ((a.y > a.x && a.y >= a.z) as usize) + 2 * ((a.z > a.x && a.z > a.y) as usize);
+        let kz = kz.min(2);
+        let (next, after) = ([1, 2, 0][kz], [2, 0, 1][kz]);
         // Keep the winding: swap when the dominant component is negative.
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let flip = d[kz] < 0.0;
+        let (kx, ky) = if flip { (after, next) } else { (next, after) };
         let sz = 1.0 / d[kz];
         Self {
             o: ray.o,
@@ -165,7 +167,7 @@ impl WatertightRay {
     /// holds entry `start` (a multiple of four), closer than `t_max`: the
     /// lane and the hit. The same test as [`WatertightRay::intersect`], four
     /// triangles at a time.
-    #[inline]
+    #[inline(always)]
     pub fn intersect4(
         &self,
         p: &TrianglePackets,
@@ -175,7 +177,8 @@ impl WatertightRay {
     ) -> Option<(usize, PrimHit)> {
         debug_assert!(start.is_multiple_of(4) && count <= 4);
         let packet = &p.packets[start / 4].v;
-        let [kx, ky, kz] = self.k;
+        // min(2): the axes are below 3, and saying so spares bounds checks.
+        let [kx, ky, kz] = self.k.map(|k| k.min(2));
         let (ox, oy, oz) = (
             f32x4::splat(self.o[kx]),
             f32x4::splat(self.o[ky]),
@@ -209,26 +212,60 @@ impl WatertightRay {
         let negative = bits(u.cmp_lt(zero) | v.cmp_lt(zero) | w.cmp_lt(zero));
         let positive = bits(u.cmp_gt(zero) | v.cmp_gt(zero) | w.cmp_gt(zero));
         let det = u + v + w;
-        let t = (u * az + v * bz + w * cz) / det;
-        let in_range = bits(t.cmp_gt(f32x4::splat(self.t_min)) & t.cmp_lt(f32x4::splat(t_max)));
+        // The distance is t_scaled / det; compare t_scaled with the range
+        // scaled by |det| instead, so that only hit lanes pay a division
+        // (Woop et al. 2013, listing 1).
+        let t_scaled = u * az + v * bz + w * cz;
+        let sign = det & f32x4::splat(-0.0);
+        let (t_signed, det_abs) = (t_scaled ^ sign, det.abs());
+        let in_range = bits(
+            t_signed.cmp_gt(f32x4::splat(self.t_min) * det_abs)
+                & t_signed.cmp_lt(f32x4::splat(t_max) * det_abs),
+        );
         let mut hit = lanes & !exact & !(negative & positive) & !bits(det.cmp_eq(zero)) & in_range;
-        let (t, v, w, det) = (t.to_array(), v.to_array(), w.to_array(), det.to_array());
+        let (t_scaled, v, w, det) = (
+            t_scaled.to_array(),
+            v.to_array(),
+            w.to_array(),
+            det.to_array(),
+        );
         let mut best: Option<(usize, PrimHit)> = None;
         while hit != 0 {
             let lane = hit.trailing_zeros() as usize;
             hit &= hit - 1;
-            if best.is_none_or(|(_, b)| t[lane] < b.t) {
-                let inv = 1.0 / det[lane];
+            let inv = 1.0 / det[lane];
+            let t = t_scaled[lane] * inv;
+            // The division may round onto the range's ends.
+            let limit = best.map_or(t_max, |(_, b)| b.t);
+            if t > self.t_min && t < limit {
                 best = Some((
                     lane,
                     PrimHit {
-                        t: t[lane],
+                        t,
                         uv: Vec2::new(v[lane] * inv, w[lane] * inv),
                     },
                 ));
             }
         }
-        let mut exact = exact;
+        if exact != 0 {
+            best = self.retest_exact_lanes(p, start, exact, t_max, best);
+        }
+        best
+    }
+
+    /// The lanes whose edge functions came out exactly 0, retested one by
+    /// one with the `f64` fallback. Rare, so kept out of line: the common
+    /// path stays small enough to inline into traversal.
+    #[cold]
+    #[inline(never)]
+    fn retest_exact_lanes(
+        &self,
+        p: &TrianglePackets,
+        start: usize,
+        mut exact: u32,
+        t_max: f32,
+        mut best: Option<(usize, PrimHit)>,
+    ) -> Option<(usize, PrimHit)> {
         while exact != 0 {
             let lane = exact.trailing_zeros() as usize;
             exact &= exact - 1;
