@@ -257,6 +257,9 @@ impl BuildNode {
 struct RayLanes {
     inv_d: [f32x8; 3],
     near_offset: [f32x8; 3],
+    /// The far planes' reciprocal direction and offset, both scaled by
+    /// `1 + 8u` so the far distance comes out enlarged for free.
+    far_inv_d: [f32x8; 3],
     far_offset: [f32x8; 3],
     /// Per axis, whether the direction is negative: the near slab is then
     /// the box's upper bound. Choosing slabs by sign (instead of min/max of
@@ -283,12 +286,18 @@ impl RayLanes {
         let o = ray.o.to_array();
         let offset = |a: usize, sign: f32| {
             let c = o[a] * inv[a];
-            f32x8::splat(-c + sign * 16.0 * ROUND_OFF * c.abs())
+            -c + sign * 16.0 * ROUND_OFF * c.abs()
         };
+        let grow = 1.0 + 8.0 * ROUND_OFF;
         Self {
             inv_d: inv.map(f32x8::splat),
-            near_offset: std::array::from_fn(|a| offset(a, -1.0)),
-            far_offset: std::array::from_fn(|a| offset(a, 1.0)),
+            near_offset: std::array::from_fn(|a| f32x8::splat(offset(a, -1.0))),
+            far_inv_d: inv.map(|i| f32x8::splat(i * grow)),
+            far_offset: std::array::from_fn(|a| {
+                let f = offset(a, 1.0);
+                // Rounding the product must not shrink the far distance.
+                f32x8::splat(f * grow + ROUND_OFF * f.abs())
+            }),
             // From the reciprocal, not the direction: -0.0 has a negative
             // reciprocal but does not compare below zero.
             neg: inv.map(|i| i < 0.0),
@@ -299,21 +308,26 @@ impl RayLanes {
     /// the ray meets within `[t_min, t_max]`.
     #[inline(always)]
     fn hit_children(&self, node: &Node, t_min: f32, t_max: f32) -> (f32x8, u32) {
-        let mut t_near = f32x8::splat(t_min);
-        let mut t_far = f32x8::splat(t_max);
+        let mut near = [f32x8::ZERO; 3];
+        let mut far = [f32x8::ZERO; 3];
         for a in 0..3 {
-            let (near, far) = if self.neg[a] {
+            let (n, f) = if self.neg[a] {
                 (&node.max[a], &node.min[a])
             } else {
                 (&node.min[a], &node.max[a])
             };
-            // No NaN can arise (finite reciprocals, finite offsets), so the
-            // plain min/max instructions suffice.
-            t_near = t_near.fast_max(near.mul_add(self.inv_d[a], self.near_offset[a]));
-            t_far = t_far.fast_min(far.mul_add(self.inv_d[a], self.far_offset[a]));
+            near[a] = n.mul_add(self.inv_d[a], self.near_offset[a]);
+            far[a] = f.mul_add(self.far_inv_d[a], self.far_offset[a]);
         }
-        let hit = t_near.cmp_le(t_far * f32x8::splat(1.0 + 8.0 * ROUND_OFF));
-        (t_near, hit.move_mask() as u32)
+        // No NaN can arise (finite reciprocals, finite offsets), so the
+        // plain min/max instructions suffice; paired for a short chain.
+        let t_near = near[0]
+            .fast_max(near[1])
+            .fast_max(near[2].fast_max(f32x8::splat(t_min)));
+        let t_far = far[0]
+            .fast_min(far[1])
+            .fast_min(far[2].fast_min(f32x8::splat(t_max)));
+        (t_near, t_near.cmp_le(t_far).move_mask() as u32)
     }
 }
 
