@@ -73,9 +73,9 @@ impl Drop for EmbreeTracer {
 fn new_device(threads: Option<usize>) -> Result<RTCDevice> {
     // YUBIN_EMBREE_VERBOSE=2 makes Embree print its BVH statistics;
     // YUBIN_EMBREE_ISA=avx2 (or sse4.2, ...) limits its instruction set.
-    let verbose =
-        std::env::var("YUBIN_EMBREE_VERBOSE").map_or(String::new(), |v| format!("verbose={v},"))
-            + &std::env::var("YUBIN_EMBREE_ISA").map_or(String::new(), |v| format!("isa={v},"));
+    let verbose = std::env::var("YUBIN_EMBREE_VERBOSE")
+        .map_or(String::new(), |v| format!("verbose={v},"))
+        + &std::env::var("YUBIN_EMBREE_ISA").map_or(String::new(), |v| format!("isa={v},"));
     let config =
         CString::new(verbose + &threads.map_or(String::new(), |t| format!("threads={t}")))?;
     // SAFETY: a valid NUL-terminated config string.
