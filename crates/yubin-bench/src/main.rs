@@ -26,14 +26,20 @@ const USAGE: &str = "usage:
   yubin-bench cornell [--spp N] [--scene PATH] [--skip-mitsuba]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
-                   [--min-passes N] [--out FILE.md]";
+                   [--min-passes N] [--out FILE.md]
+  environment: YUBIN_EMBREE_VERBOSE=2 prints Embree's BVH statistics,
+               YUBIN_EMBREE_ISA=avx2 limits Embree's instruction set";
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.iter().any(|a| a == "-h" || a == "--help") {
+        println!("{USAGE}");
+        return Ok(());
+    }
     match args.first().map(String::as_str) {
         Some("cornell") => cornell::run(&args[1..]),
         Some("rays") => rays::run(&args[1..]),
-        Some("-h" | "--help" | "help") => {
+        Some("help") => {
             println!("{USAGE}");
             Ok(())
         }

@@ -19,6 +19,7 @@ use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
 use crate::Rgb;
+use glam::Vec3;
 use rayon::prelude::*;
 
 /// What a shape is made of and whether it emits.
@@ -654,25 +655,33 @@ impl SceneBuilder {
             let g = &mut groups[gi];
             g.items = bvh
                 .take_leaf_order_packed()
-                .iter()
+                .par_iter()
                 .map(|slot| slot.map_or(Item::Empty, |i| g.items[i as usize]))
                 .collect();
             let shapes = &self.shapes;
             let meshes = &self.meshes;
-            let first_of: std::collections::HashMap<u32, u32> =
-                g.tri_runs.iter().map(|r| (r.shape, r.first)).collect();
-            g.tris = TrianglePackets::new(g.items.iter().map(|item| {
-                let Item::Triangle { shape, prim } = *item else {
-                    return None;
-                };
-                let Shape::Mesh(m) = shapes[shape as usize] else {
-                    return None;
-                };
-                Some((
-                    meshes[m.mesh as usize].triangle(prim as usize),
-                    first_of[&shape] + prim,
-                ))
-            }));
+            let runs = &g.tri_runs;
+            // Gathering the vertices is random access into the meshes:
+            // in parallel, then packed in order.
+            let lanes: Vec<Option<([Vec3; 3], u32)>> = g
+                .items
+                .par_iter()
+                .map(|item| {
+                    let Item::Triangle { shape, prim } = *item else {
+                        return None;
+                    };
+                    let Shape::Mesh(m) = shapes[shape as usize] else {
+                        return None;
+                    };
+                    // Runs are in the order shapes were added, so sorted by shape.
+                    let run = runs.binary_search_by_key(&shape, |r| r.shape).ok()?;
+                    Some((
+                        meshes[m.mesh as usize].triangle(prim as usize),
+                        runs[run].first + prim,
+                    ))
+                })
+                .collect();
+            g.tris = TrianglePackets::new(lanes.into_iter());
             g.only_triangles = g
                 .items
                 .iter()
