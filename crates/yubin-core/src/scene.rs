@@ -74,6 +74,13 @@ struct TriangleRun {
 }
 
 impl Group {
+    /// Whether the leaf starting at `start` has triangles to test (only a
+    /// leaf of analytic shapes or instances has none).
+    #[inline]
+    fn packet_has_triangles(&self, start: usize) -> bool {
+        self.only_triangles || self.tris.has_triangles(start)
+    }
+
     /// Shape and primitive of the triangle with packet id `id`.
     fn triangle(&self, id: u32) -> (u32, u32) {
         let run = &self.tri_runs[self.tri_runs.partition_point(|r| r.first <= id) - 1];
@@ -204,7 +211,7 @@ impl Scene {
             let mut r = *r;
             let mut best = None;
             // The leaf's triangles, four at a time; other items are NaN lanes.
-            if g.only_triangles || g.tris.has_triangles(start) {
+            if g.packet_has_triangles(start) {
                 let wr = shear.get_or_insert_with(|| WatertightRay::new(&r));
                 if let Some((lane, hit)) = wr.intersect4(&g.tris, start, count, r.t_max) {
                     closest = Some(Closest::Triangle(g.tris.id(start + lane), hit));
@@ -262,7 +269,7 @@ impl Scene {
     fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
         let mut shear: Option<WatertightRay> = None;
         g.bvh.any_leaves(ray, |start, count, r| {
-            if (g.only_triangles || g.tris.has_triangles(start))
+            if g.packet_has_triangles(start)
                 && shear
                     .get_or_insert_with(|| WatertightRay::new(r))
                     .intersect4(&g.tris, start, count, r.t_max)
