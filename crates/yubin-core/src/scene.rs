@@ -208,48 +208,29 @@ impl Scene {
         // are looked up once, after traversal.
         let mut closest = None;
         g.bvh.closest_leaves(ray, |start, count, r| {
-            let mut r = *r;
             let mut best = None;
             // The leaf's triangles, four at a time; other items are NaN lanes.
             if g.packet_has_triangles(start) {
-                let wr = shear.get_or_insert_with(|| WatertightRay::new(&r));
+                let wr = shear.get_or_insert_with(|| WatertightRay::new(r));
                 if let Some((lane, hit)) = wr.intersect4(&g.tris, start, count, r.t_max) {
                     closest = Some(Closest::Triangle(g.tris.id(start + lane), hit));
-                    r.t_max = hit.t;
                     best = Some(hit.t);
                 }
             }
             if g.only_triangles {
                 return best;
             }
-            for i in start..start + count {
-                let h = match g.items[i] {
-                    Item::Triangle { .. } | Item::Empty => None,
-                    Item::Prim { shape, prim } => self.shapes[shape as usize]
-                        .intersect(&self.meshes, prim, &r)
-                        .map(|hit| HitRecord {
-                            shape,
-                            prim,
-                            hit,
-                            instance,
-                        }),
-                    Item::Instance(inst) => {
-                        let placed = &self.instances[inst as usize];
-                        let mut local = to_local_ray(&r, &placed.to_world);
-                        self.closest_in_group(
-                            &self.groups[placed.group as usize],
-                            &mut local,
-                            Some(inst),
-                        )
-                    }
-                };
-                if let Some(h) = h {
+            let r = Ray {
+                t_max: best.unwrap_or(r.t_max),
+                ..*r
+            };
+            match self.closest_item(g, start..start + count, r, instance) {
+                Some(h) => {
                     closest = Some(Closest::Other(h));
-                    r.t_max = h.hit.t;
-                    best = Some(h.hit.t);
+                    Some(h.hit.t)
                 }
+                None => best,
             }
-            best
         });
         match closest? {
             Closest::Other(rec) => Some(rec),
@@ -265,6 +246,47 @@ impl Scene {
         }
     }
 
+    /// Closest hit among the items (not triangles) at `range` of a group's
+    /// leaf order. Out of line: groups of triangles only never call it, and
+    /// its size would crowd the registers of their traversal loop.
+    #[inline(never)]
+    fn closest_item(
+        &self,
+        g: &Group,
+        range: std::ops::Range<usize>,
+        mut r: Ray,
+        instance: Option<u32>,
+    ) -> Option<HitRecord> {
+        let mut best = None;
+        for item in &g.items[range] {
+            let h = match *item {
+                Item::Triangle { .. } | Item::Empty => None,
+                Item::Prim { shape, prim } => self.shapes[shape as usize]
+                    .intersect(&self.meshes, prim, &r)
+                    .map(|hit| HitRecord {
+                        shape,
+                        prim,
+                        hit,
+                        instance,
+                    }),
+                Item::Instance(inst) => {
+                    let placed = &self.instances[inst as usize];
+                    let mut local = to_local_ray(&r, &placed.to_world);
+                    self.closest_in_group(
+                        &self.groups[placed.group as usize],
+                        &mut local,
+                        Some(inst),
+                    )
+                }
+            };
+            if let Some(h) = h {
+                r.t_max = h.hit.t;
+                best = Some(h);
+            }
+        }
+        best
+    }
+
     /// True when any item of the group blocks the ray.
     fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
         let mut shear: Option<WatertightRay> = None;
@@ -277,22 +299,26 @@ impl Scene {
             {
                 return true;
             }
-            !g.only_triangles
-                && g.items[start..start + count]
-                    .iter()
-                    .any(|item| match *item {
-                        Item::Triangle { .. } | Item::Empty => false,
-                        Item::Prim { shape, prim } => self.shapes[shape as usize]
-                            .intersect(&self.meshes, prim, r)
-                            .is_some(),
-                        Item::Instance(inst) => {
-                            let placed = &self.instances[inst as usize];
-                            self.occluded_in_group(
-                                &self.groups[placed.group as usize],
-                                &to_local_ray(r, &placed.to_world),
-                            )
-                        }
-                    })
+            !g.only_triangles && self.item_occludes(g, start..start + count, r)
+        })
+    }
+
+    /// Whether an item (not a triangle) at `range` of a group's leaf order
+    /// blocks the ray; out of line like [`Scene::closest_item`].
+    #[inline(never)]
+    fn item_occludes(&self, g: &Group, range: std::ops::Range<usize>, r: &Ray) -> bool {
+        g.items[range].iter().any(|item| match *item {
+            Item::Triangle { .. } | Item::Empty => false,
+            Item::Prim { shape, prim } => self.shapes[shape as usize]
+                .intersect(&self.meshes, prim, r)
+                .is_some(),
+            Item::Instance(inst) => {
+                let placed = &self.instances[inst as usize];
+                self.occluded_in_group(
+                    &self.groups[placed.group as usize],
+                    &to_local_ray(r, &placed.to_world),
+                )
+            }
         })
     }
 

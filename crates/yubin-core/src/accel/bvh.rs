@@ -13,7 +13,7 @@
 
 use crate::math::{Bounds3, Ray};
 use arrayvec::ArrayVec;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use wide::{f32x8, CmpLe};
 
 /// Children per node.
@@ -57,17 +57,23 @@ fn leaf_code(start: usize, count: usize) -> u32 {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct Node {
-    /// Per axis, the four children's lower bounds.
-    min: [f32x8; 3],
-    /// Per axis, the four children's upper bounds.
-    max: [f32x8; 3],
+    /// The eight children's lower bounds (x, y, z), then their upper
+    /// bounds: one array, so that a ray picks its near and far planes by
+    /// index (see [`RayLanes`]) instead of by a per-node choice.
+    planes: [f32x8; 6],
     child: [u32; WIDTH],
 }
 
 impl Node {
     const EMPTY: Self = Self {
-        min: [f32x8::new([f32::INFINITY; WIDTH]); 3],
-        max: [f32x8::new([f32::NEG_INFINITY; WIDTH]); 3],
+        planes: [
+            f32x8::new([f32::INFINITY; WIDTH]),
+            f32x8::new([f32::INFINITY; WIDTH]),
+            f32x8::new([f32::INFINITY; WIDTH]),
+            f32x8::new([f32::NEG_INFINITY; WIDTH]),
+            f32x8::new([f32::NEG_INFINITY; WIDTH]),
+            f32x8::new([f32::NEG_INFINITY; WIDTH]),
+        ],
         child: [EMPTY; WIDTH],
     };
 }
@@ -261,10 +267,12 @@ struct RayLanes {
     /// `1 + 8u` so the far distance comes out enlarged for free.
     far_inv_d: [f32x8; 3],
     far_offset: [f32x8; 3],
-    /// Per axis, whether the direction is negative: the near slab is then
-    /// the box's upper bound. Choosing slabs by sign (instead of min/max of
-    /// both) also rejects the empty boxes of unused child slots.
-    neg: [bool; 3],
+    /// Per axis, the index in [`Node::planes`] of the near and of the far
+    /// slab plane: the upper bound is near when the direction is negative.
+    /// Choosing slabs by sign (instead of min/max of both) also rejects
+    /// the empty boxes of unused child slots.
+    near: [usize; 3],
+    far: [usize; 3],
 }
 
 /// Unit round-off of `f32`.
@@ -275,32 +283,29 @@ impl RayLanes {
     fn new(ray: &Ray) -> Self {
         // A zero direction component becomes a tiny one, so that its
         // reciprocal stays finite and slabs never produce NaN; 1e-20
-        // keeps `o · (1/d)` finite for any origin within 1e18.
-        let inv = ray.d.to_array().map(|d| {
-            1.0 / if d.abs() < 1e-20 {
-                1e-20f32.copysign(d)
-            } else {
-                d
-            }
-        });
-        let o = ray.o.to_array();
-        let offset = |a: usize, sign: f32| {
-            let c = o[a] * inv[a];
-            -c + sign * 16.0 * ROUND_OFF * c.abs()
-        };
+        // keeps `o · (1/d)` finite for any origin within 1e18. All three
+        // axes at once: one division instead of three.
+        let d = Vec3A::from(ray.d);
+        let tiny = Vec3A::splat(1e-20).copysign(d);
+        let inv = Vec3A::ONE / Vec3A::select(d.abs().cmplt(Vec3A::splat(1e-20)), tiny, d);
+        let c = Vec3A::from(ray.o) * inv;
+        let slack = 16.0 * ROUND_OFF * c.abs();
         let grow = 1.0 + 8.0 * ROUND_OFF;
+        let far = slack - c;
+        // Rounding the product must not shrink the far distance.
+        let far_offset = far * grow + ROUND_OFF * far.abs();
+        let splat = |v: Vec3A| v.to_array().map(f32x8::splat);
+        // From the reciprocal, not the direction: -0.0 has a negative
+        // reciprocal but does not compare below zero.
+        let neg = inv.cmplt(Vec3A::ZERO).bitmask();
+        let upper = |a: usize| (neg >> a) & 1 == 1;
         Self {
-            inv_d: inv.map(f32x8::splat),
-            near_offset: std::array::from_fn(|a| f32x8::splat(offset(a, -1.0))),
-            far_inv_d: inv.map(|i| f32x8::splat(i * grow)),
-            far_offset: std::array::from_fn(|a| {
-                let f = offset(a, 1.0);
-                // Rounding the product must not shrink the far distance.
-                f32x8::splat(f * grow + ROUND_OFF * f.abs())
-            }),
-            // From the reciprocal, not the direction: -0.0 has a negative
-            // reciprocal but does not compare below zero.
-            neg: inv.map(|i| i < 0.0),
+            inv_d: splat(inv),
+            near_offset: splat(-c - slack),
+            far_inv_d: splat(inv * grow),
+            far_offset: splat(far_offset),
+            near: std::array::from_fn(|a| if upper(a) { a + 3 } else { a }),
+            far: std::array::from_fn(|a| if upper(a) { a } else { a + 3 }),
         }
     }
 
@@ -311,11 +316,10 @@ impl RayLanes {
         let mut near = [f32x8::ZERO; 3];
         let mut far = [f32x8::ZERO; 3];
         for a in 0..3 {
-            let (n, f) = if self.neg[a] {
-                (&node.max[a], &node.min[a])
-            } else {
-                (&node.min[a], &node.max[a])
-            };
+            // min(5): the indices are planes, and saying so spares bounds
+            // checks (the minimum is hoisted out of traversal loops).
+            let n = &node.planes[self.near[a].min(5)];
+            let f = &node.planes[self.far[a].min(5)];
             near[a] = n.mul_add(self.inv_d[a], self.near_offset[a]);
             far[a] = f.mul_add(self.far_inv_d[a], self.far_offset[a]);
         }
@@ -478,8 +482,10 @@ impl Bvh {
             }
             node4.child[slot] = self.collapse(kid);
         }
-        node4.min = min.map(f32x8::new);
-        node4.max = max.map(f32x8::new);
+        for a in 0..3 {
+            node4.planes[a] = f32x8::new(min[a]);
+            node4.planes[a + 3] = f32x8::new(max[a]);
+        }
         self.nodes[index] = node4;
         index as u32
     }
