@@ -91,20 +91,23 @@ impl TrianglePackets {
 /// A ray prepared for watertight triangle tests.
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
-    o: Vec3,
+    /// Origin, in the permuted axis order `k`.
+    o: [f32; 3],
     /// Axis permutation: the ray's dominant axis last.
     k: [usize; 3],
     /// Shear constants.
-    s: Vec3,
+    s: [f32; 3],
     t_min: f32,
 }
 
 impl WatertightRay {
-    /// Precomputes the shear of `ray`.
-    #[inline]
+    /// Precomputes the shear of `ray`. Always inlined: it runs once per
+    /// ray at its first leaf, and a call there would make traversal save
+    /// and restore all of its vector registers around it.
+    #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.d;
-        let a = d.abs();
+        let d = ray.d.to_array();
+        let a = ray.d.abs();
         // The dominant axis, without branches (rays are incoherent, so
         // branches on their direction mispredict).
         let kz = ((a.y > a.x && a.y >= a.z) as usize) + 2 * ((a.z > a.x && a.z > a.y) as usize);
@@ -114,10 +117,11 @@ impl WatertightRay {
         let flip = d[kz] < 0.0;
         let (kx, ky) = if flip { (after, next) } else { (next, after) };
         let sz = 1.0 / d[kz];
+        let o = ray.o.to_array();
         Self {
-            o: ray.o,
+            o: [o[kx], o[ky], o[kz]],
             k: [kx, ky, kz],
-            s: Vec3::new(d[kx] * sz, d[ky] * sz, sz),
+            s: [d[kx] * sz, d[ky] * sz, sz],
             t_min: ray.t_min,
         }
     }
@@ -126,13 +130,21 @@ impl WatertightRay {
     /// distance and the barycentrics of vertices 1 and 2.
     #[inline]
     pub fn intersect(&self, v: &[Vec3; 3], t_max: f32) -> Option<PrimHit> {
-        let [kx, ky, kz] = self.k;
-        let a = v[0] - self.o;
-        let b = v[1] - self.o;
-        let c = v[2] - self.o;
-        let (ax, ay) = (a[kx] - self.s.x * a[kz], a[ky] - self.s.y * a[kz]);
-        let (bx, by) = (b[kx] - self.s.x * b[kz], b[ky] - self.s.y * b[kz]);
-        let (cx, cy) = (c[kx] - self.s.x * c[kz], c[ky] - self.s.y * c[kz]);
+        let [kx, ky, kz] = self.k.map(|k| k.min(2));
+        let [sx, sy, sz] = self.s;
+        // Vertex `i`, translated to the ray origin and sheared: (x, y, z).
+        let vertex = |i: usize| {
+            let p = v[i].to_array();
+            let z = p[kz] - self.o[2];
+            (
+                p[kx] - self.o[0] - sx * z,
+                p[ky] - self.o[1] - sy * z,
+                sz * z,
+            )
+        };
+        let (ax, ay, az) = vertex(0);
+        let (bx, by, bz) = vertex(1);
+        let (cx, cy, cz) = vertex(2);
         let mut u = cx * by - cy * bx;
         let mut v_ = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
@@ -151,7 +163,6 @@ impl WatertightRay {
         if det == 0.0 {
             return None;
         }
-        let (az, bz, cz) = (self.s.z * a[kz], self.s.z * b[kz], self.s.z * c[kz]);
         let t_scaled = u * az + v_ * bz + w * cz;
         let inv_det = 1.0 / det;
         let t = t_scaled * inv_det;
@@ -179,16 +190,8 @@ impl WatertightRay {
         let packet = &p.packets[start / 4].v;
         // min(2): the axes are below 3, and saying so spares bounds checks.
         let [kx, ky, kz] = self.k.map(|k| k.min(2));
-        let (ox, oy, oz) = (
-            f32x4::splat(self.o[kx]),
-            f32x4::splat(self.o[ky]),
-            f32x4::splat(self.o[kz]),
-        );
-        let (sx, sy, sz) = (
-            f32x4::splat(self.s.x),
-            f32x4::splat(self.s.y),
-            f32x4::splat(self.s.z),
-        );
+        let [ox, oy, oz] = self.o.map(f32x4::splat);
+        let [sx, sy, sz] = self.s.map(f32x4::splat);
         // Vertex `v`, translated to the ray origin and sheared.
         let vertex = |v: usize| {
             let z = packet[v][kz] - oz;
