@@ -57,15 +57,19 @@ fn leaf_code(start: usize, count: usize) -> u32 {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct Node {
+    /// First, so that the child codes share a cache line with the first
+    /// planes: the child to visit is read right after the box test, and
+    /// on a line of its own that read would wait for memory a second time.
+    child: [u32; WIDTH],
     /// The eight children's lower bounds (x, y, z), then their upper
     /// bounds: one array, so that a ray picks its near and far planes by
     /// index (see [`RayLanes`]) instead of by a per-node choice.
     planes: [f32x8; 6],
-    child: [u32; WIDTH],
 }
 
 impl Node {
     const EMPTY: Self = Self {
+        child: [EMPTY; WIDTH],
         planes: [
             f32x8::new([f32::INFINITY; WIDTH]),
             f32x8::new([f32::INFINITY; WIDTH]),
@@ -74,7 +78,6 @@ impl Node {
             f32x8::new([f32::NEG_INFINITY; WIDTH]),
             f32x8::new([f32::NEG_INFINITY; WIDTH]),
         ],
-        child: [EMPTY; WIDTH],
     };
 }
 
