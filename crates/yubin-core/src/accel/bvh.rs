@@ -13,7 +13,7 @@
 
 use crate::math::{Bounds3, Ray};
 use arrayvec::ArrayVec;
-use glam::{Vec3, Vec3A};
+use glam::{Vec3A, Vec4};
 use wide::{f32x8, CmpLe};
 
 /// Children per node.
@@ -117,12 +117,101 @@ pub enum PrimCost {
     Alone(f32),
 }
 
+/// A primitive during the build: 32 bytes, so that the passes over
+/// millions of them move as little memory as possible. The bounds' fourth
+/// lanes carry the index (lower corner, as bits) and the SAH cost (upper
+/// corner: negative for [`PrimCost::Packed`]).
 #[derive(Clone, Copy)]
 struct BuildPrim {
-    bounds: Bounds3,
-    centroid: Vec3,
-    index: u32,
-    cost: PrimCost,
+    min: Vec4,
+    max: Vec4,
+}
+
+impl BuildPrim {
+    fn new(bounds: &Bounds3, index: u32, cost: PrimCost) -> Self {
+        let cost = match cost {
+            PrimCost::Packed => -1.0,
+            PrimCost::Alone(c) => c.max(0.0),
+        };
+        Self {
+            min: bounds.min.extend(f32::from_bits(index)),
+            max: bounds.max.extend(cost),
+        }
+    }
+
+    #[inline]
+    fn bounds(&self) -> Box3A {
+        Box3A {
+            min: Vec3A::from_vec4(self.min),
+            max: Vec3A::from_vec4(self.max),
+        }
+    }
+
+    #[inline]
+    fn index(&self) -> u32 {
+        self.min.w.to_bits()
+    }
+
+    #[inline]
+    fn cost(&self) -> PrimCost {
+        if self.max.w < 0.0 {
+            PrimCost::Packed
+        } else {
+            PrimCost::Alone(self.max.w)
+        }
+    }
+
+    /// Twice the centroid (`min + max`): the builder bins and splits on it
+    /// throughout, which saves the halving.
+    #[inline]
+    fn centroid2(&self) -> Vec3A {
+        Vec3A::from_vec4(self.min + self.max)
+    }
+}
+
+/// A box with 16-byte corners, for the builder's many unions (one SIMD
+/// min and max each, where [`Bounds3`] takes three of each).
+#[derive(Clone, Copy, Debug)]
+struct Box3A {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl Box3A {
+    const EMPTY: Self = Self {
+        min: Vec3A::INFINITY,
+        max: Vec3A::NEG_INFINITY,
+    };
+
+    #[inline]
+    fn union(self, o: Self) -> Self {
+        Self {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    #[inline]
+    fn union_point(self, p: Vec3A) -> Self {
+        Self {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    /// Surface area; 0 for an empty box.
+    #[inline]
+    fn area(self) -> f32 {
+        let e = (self.max - self.min).max(Vec3A::ZERO);
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    fn to_bounds(self) -> Bounds3 {
+        Bounds3 {
+            min: self.min.into(),
+            max: self.max.into(),
+        }
+    }
 }
 
 /// The summed test cost of a set of primitives.
@@ -353,12 +442,7 @@ impl Bvh {
             .par_iter()
             .enumerate()
             .filter(|(_, b)| !b.is_empty() && b.min.is_finite() && b.max.is_finite())
-            .map(|(i, b)| BuildPrim {
-                bounds: *b,
-                centroid: b.center(),
-                index: i as u32,
-                cost: cost(i),
-            })
+            .map(|(i, b)| BuildPrim::new(b, i as u32, cost(i)))
             .collect();
         debug_assert!(
             prims.len() <= START_MASK as usize,
@@ -374,7 +458,7 @@ impl Bvh {
         let root = build_recursive(&mut prims, 0, 0, extent);
         let mut bvh = Self {
             nodes: Vec::with_capacity(prims.len() / 2 + 1),
-            prims: prims.iter().map(|p| p.index).collect(),
+            prims: prims.iter().map(BuildPrim::index).collect(),
             root: EMPTY,
             bounds: root.bounds(),
         };
@@ -666,17 +750,18 @@ fn pop_within(stack: &mut ArrayVec<(u32, f32), STACK>, t_max: f32) -> Option<u32
     None
 }
 
-/// The boxes around a set of primitives and around their centroids.
+/// The boxes around a set of primitives and around their (doubled)
+/// centroids.
 #[derive(Clone, Copy)]
 struct Extent {
-    bounds: Bounds3,
-    centroids: Bounds3,
+    bounds: Box3A,
+    centroids: Box3A,
 }
 
 impl Extent {
     const EMPTY: Self = Self {
-        bounds: Bounds3::EMPTY,
-        centroids: Bounds3::EMPTY,
+        bounds: Box3A::EMPTY,
+        centroids: Box3A::EMPTY,
     };
 
     fn of(prims: &[BuildPrim]) -> Self {
@@ -687,12 +772,18 @@ impl Extent {
                 .map(Self::of)
                 .reduce(|| Self::EMPTY, Self::union);
         }
-        prims.iter().fold(Self::EMPTY, |e, p| Self {
-            bounds: e.bounds.union(p.bounds),
-            centroids: e.centroids.union_point(p.centroid),
-        })
+        prims.iter().fold(Self::EMPTY, |e, p| e.add(p))
     }
 
+    #[inline]
+    fn add(self, p: &BuildPrim) -> Self {
+        Self {
+            bounds: self.bounds.union(p.bounds()),
+            centroids: self.centroids.union_point(p.centroid2()),
+        }
+    }
+
+    #[inline]
     fn union(self, o: Self) -> Self {
         Self {
             bounds: self.bounds.union(o.bounds),
@@ -713,26 +804,28 @@ fn build_recursive(
     depth: usize,
     extent: Extent,
 ) -> BuildNode {
-    let leaf = BuildNode::Leaf {
-        bounds: extent.bounds,
+    // Only built when it is the answer: summing the costs is a pass over
+    // the primitives, which large nodes must not pay at every level.
+    let leaf = |prims: &[BuildPrim]| BuildNode::Leaf {
+        bounds: extent.bounds.to_bounds(),
         start,
         count: prims.len(),
-        cost: extent.bounds.surface_area()
+        cost: extent.bounds.area()
             * prims
                 .iter()
-                .fold(Load::default(), |l, p| l.add(p.cost))
+                .fold(Load::default(), |l, p| l.add(p.cost()))
                 .cost(),
     };
     if prims.len() <= 1 {
-        return leaf;
+        return leaf(prims);
     }
     let split = if depth < MAX_SAH_DEPTH {
         choose_split(prims, &extent)
     } else {
-        split_in_middle(prims, extent.centroids.max_axis())
+        split_in_middle(prims, widest_axis(&extent.centroids))
     };
     let Some((mid, left_extent, right_extent)) = split else {
-        return leaf;
+        return leaf(prims);
     };
     let (left, right) = prims.split_at_mut(mid);
     let children = if left.len() + right.len() > PARALLEL_THRESHOLD {
@@ -746,85 +839,164 @@ fn build_recursive(
             build_recursive(right, start + mid, depth + 1, right_extent),
         )
     };
-    BuildNode::inner(extent.bounds, [children.0, children.1])
+    BuildNode::inner(extent.bounds.to_bounds(), [children.0, children.1])
 }
 
-/// Per bin: the extent of its primitives and the sum of their costs.
-type Bins = [(Extent, Load); BINS];
+fn widest_axis(b: &Box3A) -> usize {
+    let e = b.max - b.min;
+    if e.x >= e.y && e.x >= e.z {
+        0
+    } else if e.y >= e.z {
+        1
+    } else {
+        2
+    }
+}
 
-fn bin(prims: &[BuildPrim], axis: usize, bin_of: &(impl Fn(f32) -> usize + Sync)) -> Bins {
+/// The box around a bin's primitives and the sum of their costs. (Their
+/// centroids' box is not needed: partitioning gathers both sides' extents
+/// as it moves the primitives.)
+#[derive(Clone, Copy)]
+struct Bin {
+    bounds: Box3A,
+    load: Load,
+}
+
+impl Bin {
+    const EMPTY: Self = Self {
+        bounds: Box3A::EMPTY,
+        load: Load {
+            alone: 0.0,
+            packed: 0,
+        },
+    };
+
+    #[inline]
+    fn union(self, o: Self) -> Self {
+        Self {
+            bounds: self.bounds.union(o.bounds),
+            load: self.load.union(o.load),
+        }
+    }
+
+    /// The SAH term: area times cost.
+    #[inline]
+    fn cost(&self) -> f32 {
+        self.bounds.area() * self.load.cost()
+    }
+}
+
+/// Per axis, the bins.
+type Bins = [[Bin; BINS]; 3];
+
+/// Where a (doubled) centroid falls among the bins of each axis. Axes
+/// along which all centroids coincide put everything in bin 0.
+#[derive(Clone, Copy)]
+struct Binning {
+    lo: Vec3A,
+    scale: Vec3A,
+}
+
+impl Binning {
+    fn new(centroids: &Box3A) -> Self {
+        let extent = centroids.max - centroids.min;
+        let positive = extent.cmpgt(Vec3A::ZERO);
+        Self {
+            lo: centroids.min,
+            scale: Vec3A::select(positive, BINS as f32 / extent, Vec3A::ZERO),
+        }
+    }
+
+    /// The bin on each axis, all three at once. Partitioning calls this
+    /// too, so that primitives land exactly where binning counted them.
+    #[inline]
+    fn bins(&self, c: Vec3A) -> [usize; 3] {
+        let f = ((c - self.lo) * self.scale).min(Vec3A::splat((BINS - 1) as f32));
+        // One vector conversion; the centroid is never below `lo`, and the
+        // minimum tells the compiler the index is in range.
+        f.as_ivec3().to_array().map(|i| (i as usize).min(BINS - 1))
+    }
+}
+
+fn bin(prims: &[BuildPrim], binning: &Binning) -> Bins {
     if prims.len() > PARALLEL_BINNING {
         use rayon::prelude::*;
         return prims
             .par_chunks(BINNING_CHUNK)
-            .map(|c| bin(c, axis, bin_of))
+            .map(|c| bin(c, binning))
             .reduce(
-                || [(Extent::EMPTY, Load::default()); BINS],
+                || [[Bin::EMPTY; BINS]; 3],
                 |mut a, b| {
-                    for (x, y) in a.iter_mut().zip(b) {
-                        *x = (x.0.union(y.0), x.1.union(y.1));
+                    for (x, y) in a.iter_mut().flatten().zip(b.iter().flatten()) {
+                        *x = x.union(*y);
                     }
                     a
                 },
             );
     }
-    let mut bins = [(Extent::EMPTY, Load::default()); BINS];
+    let mut bins = [[Bin::EMPTY; BINS]; 3];
     for p in prims {
-        let b = &mut bins[bin_of(p.centroid[axis])];
-        b.0.bounds = b.0.bounds.union(p.bounds);
-        b.0.centroids = b.0.centroids.union_point(p.centroid);
-        b.1 = b.1.add(p.cost);
+        for (axis, i) in binning.bins(p.centroid2()).into_iter().enumerate() {
+            let b = &mut bins[axis][i];
+            b.bounds = b.bounds.union(p.bounds());
+            b.load = b.load.add(p.cost());
+        }
     }
     bins
 }
 
-/// Picks the SAH-best binned split over the widest centroid axis and
+/// The best split of one axis's bins: its SAH cost (unnormalised) and the
+/// first bin of the right side.
+fn best_split_of(bins: &[Bin; BINS]) -> (f32, usize) {
+    // Sweep from the right for the suffix costs, then from the left.
+    let mut right_cost = [0.0; BINS];
+    let mut acc = Bin::EMPTY;
+    for i in (1..BINS).rev() {
+        acc = acc.union(bins[i]);
+        right_cost[i] = acc.cost();
+    }
+    let mut best = (f32::INFINITY, 0);
+    let mut left = Bin::EMPTY;
+    for i in 0..BINS - 1 {
+        left = left.union(bins[i]);
+        let cost = left.cost() + right_cost[i + 1];
+        if cost < best.0 {
+            best = (cost, i + 1);
+        }
+    }
+    best
+}
+
+/// Picks the SAH-best binned split over all three axes (Wald 2007, "On
+/// fast construction of SAH-based bounding volume hierarchies") and
 /// partitions `prims` around it: the split position and both sides'
 /// extents; `None` means "make a leaf".
 fn choose_split(prims: &mut [BuildPrim], extent: &Extent) -> Option<(usize, Extent, Extent)> {
-    let centroids = &extent.centroids;
-    let axis = centroids.max_axis();
-    let (lo, hi) = (centroids.min[axis], centroids.max[axis]);
-    if hi <= lo {
-        return split_in_middle(prims, axis);
-    }
-    let scale = BINS as f32 / (hi - lo);
-    let bin_of = move |c: f32| (((c - lo) * scale) as usize).min(BINS - 1);
-    let bins = bin(prims, axis, &bin_of);
-    // Sweep from the right to get suffix extents, then from the left.
-    let mut right = [(Extent::EMPTY, Load::default()); BINS];
-    let mut acc = (Extent::EMPTY, Load::default());
-    for i in (1..BINS).rev() {
-        acc = (acc.0.union(bins[i].0), acc.1.union(bins[i].1));
-        right[i] = acc;
-    }
-    let (mut best_cost, mut best_split) = (f32::INFINITY, 0);
-    let mut left = (Extent::EMPTY, Load::default());
-    let mut left_at = [(Extent::EMPTY, Load::default()); BINS];
-    for i in 0..BINS - 1 {
-        left = (left.0.union(bins[i].0), left.1.union(bins[i].1));
-        left_at[i + 1] = left;
-        let cost = left.1.cost() * left.0.bounds.surface_area()
-            + right[i + 1].1.cost() * right[i + 1].0.bounds.surface_area();
-        if cost < best_cost {
-            best_cost = cost;
-            best_split = i + 1;
-        }
-    }
-    let parent_area = extent.bounds.surface_area().max(f32::MIN_POSITIVE);
+    let binning = Binning::new(&extent.centroids);
+    let bins = bin(prims, &binning);
+    // An axis whose centroids all coincide has every primitive in bin 0
+    // and offers no split.
+    let axes = (0..3).filter(|&a| binning.scale[a] > 0.0);
+    let Some((axis, (best_cost, split))) = axes
+        .map(|a| (a, best_split_of(&bins[a])))
+        .min_by(|x, y| x.1 .0.total_cmp(&y.1 .0))
+    else {
+        return split_in_middle(prims, 0);
+    };
+    let parent_area = extent.bounds.area().max(f32::MIN_POSITIVE);
     let split_cost = TRAVERSAL_COST + best_cost / parent_area;
-    let leaf_cost = bins
+    let leaf_cost = bins[axis]
         .iter()
-        .fold(Load::default(), |l, b| l.union(b.1))
+        .fold(Load::default(), |l, b| l.union(b.load))
         .cost();
     if prims.len() <= MAX_LEAF && split_cost >= leaf_cost {
         return None;
     }
-    let mid = partition(prims, |p| bin_of(p.centroid[axis]) < best_split);
+    let (mid, left, right) = partition(prims, &|p| binning.bins(p.centroid2())[axis] < split);
     if mid == 0 || mid == prims.len() {
         return split_in_middle(prims, axis);
     }
-    Some((mid, left_at[best_split].0, right[best_split].0))
+    Some((mid, left, right))
 }
 
 fn split_in_middle(prims: &mut [BuildPrim], axis: usize) -> Option<(usize, Extent, Extent)> {
@@ -832,19 +1004,52 @@ fn split_in_middle(prims: &mut [BuildPrim], axis: usize) -> Option<(usize, Exten
         return None;
     }
     let mid = prims.len() / 2;
-    prims.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+    prims.select_nth_unstable_by(mid, |a, b| {
+        a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
+    });
     Some((mid, Extent::of(&prims[..mid]), Extent::of(&prims[mid..])))
 }
 
-fn partition(prims: &mut [BuildPrim], pred: impl Fn(&BuildPrim) -> bool) -> usize {
-    let mut first = 0;
-    for i in 0..prims.len() {
-        if pred(&prims[i]) {
-            prims.swap(first, i);
-            first += 1;
-        }
+/// Moves the primitives for which `pred` holds to the front; returns
+/// their count and the extents of both sides, gathered on the way. Large
+/// slices are split in halves partitioned in parallel, and then only the
+/// misplaced middle is exchanged: `[L1 R1 | L2 R2]` becomes `[L1 L2 R1 R2]`
+/// up to order within each side, by swapping the first `k` of `R1` with
+/// the last `k` of `L2`, `k = min(|R1|, |L2|)`.
+fn partition(
+    prims: &mut [BuildPrim],
+    pred: &(impl Fn(&BuildPrim) -> bool + Sync),
+) -> (usize, Extent, Extent) {
+    if prims.len() > PARALLEL_BINNING {
+        let half = prims.len() / 2;
+        let (a, b) = prims.split_at_mut(half);
+        let ((na, la, ra), (nb, lb, rb)) =
+            rayon::join(|| partition(a, pred), || partition(b, pred));
+        let k = (half - na).min(nb);
+        a[na..na + k].swap_with_slice(&mut b[nb - k..nb]);
+        return (na + nb, la.union(lb), ra.union(rb));
     }
-    first
+    // Hoare's scheme: only misplaced pairs move.
+    let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
+    let (mut i, mut j) = (0, prims.len());
+    loop {
+        while i < j && pred(&prims[i]) {
+            left = left.add(&prims[i]);
+            i += 1;
+        }
+        while i < j && !pred(&prims[j - 1]) {
+            right = right.add(&prims[j - 1]);
+            j -= 1;
+        }
+        if i >= j {
+            return (i, left, right);
+        }
+        prims.swap(i, j - 1);
+        left = left.add(&prims[i]);
+        right = right.add(&prims[j - 1]);
+        i += 1;
+        j -= 1;
+    }
 }
 
 #[cfg(test)]
@@ -852,6 +1057,7 @@ mod tests {
     use super::*;
     use crate::sampler::Pcg32;
     use crate::sampling::square_to_uniform_sphere;
+    use glam::Vec3;
 
     /// Random spheres as primitives (simple exact intersection).
     fn spheres(n: usize, rng: &mut Pcg32) -> Vec<(Vec3, f32)> {
