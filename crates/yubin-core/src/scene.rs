@@ -714,7 +714,7 @@ impl SceneBuilder {
                     ))
                 })
                 .collect();
-            g.tris = TrianglePackets::new(lanes.into_iter());
+            g.tris = TrianglePackets::new(&lanes);
             g.only_triangles = g
                 .items
                 .iter()

@@ -37,24 +37,32 @@ struct Packet {
 
 impl TrianglePackets {
     /// Packs `tris` (vertices and an id) in order, four to a packet;
-    /// `None` marks an entry that is not a triangle (or padding).
-    pub fn new(tris: impl ExactSizeIterator<Item = Option<([Vec3; 3], u32)>>) -> Self {
-        let mut lanes: Vec<([Vec3; 3], u32)> =
-            tris.map(|t| t.unwrap_or(([Vec3::NAN; 3], 0))).collect();
-        lanes.resize(lanes.len().div_ceil(4) * 4, ([Vec3::NAN; 3], 0));
-        let any = lanes
-            .chunks_exact(4)
-            .map(|quad| quad.iter().any(|t| !t.0[0].is_nan()))
+    /// `None` marks an entry that is not a triangle (or padding). In
+    /// parallel: a million-triangle mesh has a quarter million packets.
+    pub fn new(tris: &[Option<([Vec3; 3], u32)>]) -> Self {
+        use rayon::prelude::*;
+        let lane = |quad: &[Option<([Vec3; 3], u32)>], i: usize| {
+            quad.get(i)
+                .copied()
+                .flatten()
+                .unwrap_or(([Vec3::NAN; 3], 0))
+        };
+        let any = tris
+            .par_chunks(4)
+            .map(|quad| quad.iter().any(Option::is_some))
             .collect();
-        let packets = lanes
-            .chunks_exact(4)
-            .map(|quad| Packet {
-                v: std::array::from_fn(|v| {
-                    std::array::from_fn(|axis| {
-                        f32x4::new(std::array::from_fn(|lane| quad[lane].0[v][axis]))
-                    })
-                }),
-                id: std::array::from_fn(|lane| quad[lane].1),
+        let packets = tris
+            .par_chunks(4)
+            .map(|quad| {
+                let quad: [([Vec3; 3], u32); 4] = std::array::from_fn(|i| lane(quad, i));
+                Packet {
+                    v: std::array::from_fn(|v| {
+                        std::array::from_fn(|axis| {
+                            f32x4::new(std::array::from_fn(|l| quad[l].0[v][axis]))
+                        })
+                    }),
+                    id: std::array::from_fn(|l| quad[l].1),
+                }
             })
             .collect();
         Self { packets, any }
@@ -369,7 +377,7 @@ mod tests {
     #[test]
     fn four_wide_test_agrees_with_the_scalar_one() {
         let tris = octahedron_grid(6);
-        let packets = TrianglePackets::new(tris.iter().map(|t| Some((*t, 0))));
+        let packets = TrianglePackets::new(&tris.iter().map(|t| Some((*t, 0))).collect::<Vec<_>>());
         let mut rng = Pcg32::new(3, 4);
         let mut hits = 0;
         for _ in 0..4000 {
@@ -396,7 +404,7 @@ mod tests {
         }
         assert!(hits > 1000);
         // Non-triangle (NaN) entries are never hit.
-        let mixed = TrianglePackets::new([None, Some((tris[0], 7)), None].into_iter());
+        let mixed = TrianglePackets::new(&[None, Some((tris[0], 7)), None]);
         let c = (tris[0][0] + tris[0][1] + tris[0][2]) / 3.0;
         let ray = Ray::new(c * 3.0, -c.normalize());
         assert_eq!(
@@ -407,7 +415,7 @@ mod tests {
         );
         assert_eq!(mixed.id(1), 7);
         assert!(mixed.has_triangles(0));
-        assert!(!TrianglePackets::new([None].into_iter()).has_triangles(0));
+        assert!(!TrianglePackets::new(&[None]).has_triangles(0));
     }
 
     #[test]
