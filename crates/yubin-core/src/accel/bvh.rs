@@ -822,7 +822,7 @@ fn build_recursive(
     let split = if depth < MAX_SAH_DEPTH {
         choose_split(prims, &extent)
     } else {
-        split_in_middle(prims, widest_axis(&extent.centroids))
+        split_in_middle(prims, extent.centroids.to_bounds().max_axis())
     };
     let Some((mid, left_extent, right_extent)) = split else {
         return leaf(prims);
@@ -840,17 +840,6 @@ fn build_recursive(
         )
     };
     BuildNode::inner(extent.bounds.to_bounds(), [children.0, children.1])
-}
-
-fn widest_axis(b: &Box3A) -> usize {
-    let e = b.max - b.min;
-    if e.x >= e.y && e.x >= e.z {
-        0
-    } else if e.y >= e.z {
-        1
-    } else {
-        2
-    }
 }
 
 /// The box around a bin's primitives and the sum of their costs. (Their

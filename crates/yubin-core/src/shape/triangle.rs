@@ -47,24 +47,22 @@ impl TrianglePackets {
                 .flatten()
                 .unwrap_or(([Vec3::NAN; 3], 0))
         };
-        let any = tris
-            .par_chunks(4)
-            .map(|quad| quad.iter().any(Option::is_some))
-            .collect();
-        let packets = tris
+        let (packets, any) = tris
             .par_chunks(4)
             .map(|quad| {
+                let has_triangle = quad.iter().any(Option::is_some);
                 let quad: [([Vec3; 3], u32); 4] = std::array::from_fn(|i| lane(quad, i));
-                Packet {
+                let packet = Packet {
                     v: std::array::from_fn(|v| {
                         std::array::from_fn(|axis| {
                             f32x4::new(std::array::from_fn(|l| quad[l].0[v][axis]))
                         })
                     }),
                     id: std::array::from_fn(|l| quad[l].1),
-                }
+                };
+                (packet, has_triangle)
             })
-            .collect();
+            .unzip();
         Self { packets, any }
     }
 
