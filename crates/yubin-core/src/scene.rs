@@ -19,7 +19,6 @@ use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
 use crate::Rgb;
-use glam::Vec3;
 use rayon::prelude::*;
 
 /// What a shape is made of and whether it emits.
@@ -83,8 +82,7 @@ impl Group {
 
     /// Shape and primitive of the triangle with packet id `id`.
     fn triangle(&self, id: u32) -> (u32, u32) {
-        let run = &self.tri_runs[self.tri_runs.partition_point(|r| r.first <= id) - 1];
-        (run.shape, id - run.first)
+        triangle_of_id(&self.tri_runs, id)
     }
 
     /// Every (shape, primitive) of the group's triangles and analytic
@@ -406,7 +404,12 @@ fn instance_to_world(local: &SurfaceInteraction, t: &Transform) -> SurfaceIntera
     }
 }
 
-/// The vertices of a triangle item (`None` for other items).
+/// Shape and primitive of the triangle with packet id `id`.
+fn triangle_of_id(runs: &[TriangleRun], id: u32) -> (u32, u32) {
+    let run = &runs[runs.partition_point(|r| r.first <= id) - 1];
+    (run.shape, id - run.first)
+}
+
 /// The runs of consecutive triangles of one mesh shape in a group's items
 /// (`add_shape_to` adds a mesh's triangles together, in order), numbered
 /// one after another.
@@ -686,41 +689,44 @@ impl SceneBuilder {
                 Item::Instance(_) => PrimCost::Alone(4.0),
             });
             let g = &mut groups[gi];
-            g.items = bvh
-                .take_leaf_order_packed()
-                .par_iter()
-                .map(|slot| slot.map_or(Item::Empty, |i| g.items[i as usize]))
-                .collect();
-            let shapes = &self.shapes;
-            let meshes = &self.meshes;
-            let runs = &g.tri_runs;
-            // Gathering the vertices is random access into the meshes:
-            // in parallel, then packed in order.
-            let lanes: Vec<Option<([Vec3; 3], u32)>> = g
-                .items
-                .par_iter()
-                .map(|item| {
-                    let Item::Triangle { shape, prim } = *item else {
-                        return None;
-                    };
-                    let Shape::Mesh(m) = shapes[shape as usize] else {
-                        return None;
-                    };
-                    // Runs are in the order shapes were added, so sorted by shape.
-                    let run = runs.binary_search_by_key(&shape, |r| r.shape).ok()?;
-                    Some((
-                        meshes[m.mesh as usize].triangle(prim as usize),
-                        runs[run].first + prim,
-                    ))
-                })
-                .collect();
-            g.tris = TrianglePackets::new(&lanes);
+            let order = bvh.take_leaf_order_packed();
+            // Whether a group holds only triangles does not depend on the
+            // order; such a group keeps no item list, so none is permuted.
             g.only_triangles = g
                 .items
                 .iter()
                 .all(|item| matches!(item, Item::Triangle { .. } | Item::Empty));
-            if g.only_triangles {
-                g.items = Vec::new();
+            let old_items = std::mem::take(&mut g.items);
+            let item_at = |i: usize| order[i].map_or(Item::Empty, |p| old_items[p as usize]);
+            let (shapes, meshes, runs) = (&self.shapes, &self.meshes, &g.tri_runs);
+            let only_triangles = g.only_triangles;
+            // Gathering the vertices is random access into the meshes, so
+            // it runs in parallel, packet by packet.
+            g.tris = TrianglePackets::new(order.len(), |i| {
+                let (shape, prim) = if only_triangles {
+                    // The items are then the runs end to end (a mesh's
+                    // triangles are added together, in order): item `p`
+                    // is triangle id `p`, and reading the item list, a
+                    // random access per triangle, is saved.
+                    triangle_of_id(runs, order[i]?)
+                } else {
+                    let Item::Triangle { shape, prim } = item_at(i) else {
+                        return None;
+                    };
+                    (shape, prim)
+                };
+                let Shape::Mesh(m) = shapes[shape as usize] else {
+                    return None;
+                };
+                // Runs are in the order shapes were added, so sorted by shape.
+                let run = runs.binary_search_by_key(&shape, |r| r.shape).ok()?;
+                Some((
+                    meshes[m.mesh as usize].triangle(prim as usize),
+                    runs[run].first + prim,
+                ))
+            });
+            if !g.only_triangles {
+                g.items = (0..order.len()).into_par_iter().map(item_at).collect();
             }
             g.bvh = bvh;
         }

@@ -14,7 +14,7 @@
 use crate::math::{Bounds3, Ray};
 use arrayvec::ArrayVec;
 use glam::{Vec3A, Vec4};
-use wide::{f32x8, CmpLe};
+use wide::{f32x4, f32x8, CmpLe};
 
 /// Children per node.
 const WIDTH: usize = 8;
@@ -438,12 +438,18 @@ impl Bvh {
     /// primitive `i` relative to visiting a node, for the SAH.
     pub fn build_with_costs(bounds: &[Bounds3], cost: impl Fn(usize) -> PrimCost + Sync) -> Self {
         use rayon::prelude::*;
+        let usable = |b: &Bounds3| !b.is_empty() && b.min.is_finite() && b.max.is_finite();
+        // Collected at full length and then filtered: a filtered parallel
+        // collect has no length to write to and gathers per-thread lists
+        // first, which cost a tenth of the build.
         let mut prims: Vec<BuildPrim> = bounds
             .par_iter()
             .enumerate()
-            .filter(|(_, b)| !b.is_empty() && b.min.is_finite() && b.max.is_finite())
             .map(|(i, b)| BuildPrim::new(b, i as u32, cost(i)))
             .collect();
+        if !bounds.par_iter().all(usable) {
+            prims.retain(|p| usable(&bounds[p.index() as usize]));
+        }
         debug_assert!(
             prims.len() <= START_MASK as usize,
             "too many primitives for one BVH"
@@ -455,7 +461,7 @@ impl Bvh {
             };
         }
         let extent = Extent::of(&prims);
-        let root = build_recursive(&mut prims, 0, 0, extent);
+        let root = build_recursive(&mut prims, 0, 0, extent, &mut [[Bin::EMPTY; BINS]; 3]);
         let mut bvh = Self {
             nodes: Vec::with_capacity(prims.len() / 2 + 1),
             prims: prims.iter().map(BuildPrim::index).collect(),
@@ -798,11 +804,14 @@ const BINNING_CHUNK: usize = 1 << 14;
 
 /// `extent` is that of `prims`, computed by the parent's binning, so each
 /// level reads the primitives twice (bin, partition) instead of four times.
+/// `bins` is scratch space, reused down the recursion (a fresh 2 KB array
+/// per node cost a copy of it per node).
 fn build_recursive(
     prims: &mut [BuildPrim],
     start: usize,
     depth: usize,
     extent: Extent,
+    bins: &mut Bins,
 ) -> BuildNode {
     // Only built when it is the answer: summing the costs is a pass over
     // the primitives, which large nodes must not pay at every level.
@@ -820,7 +829,7 @@ fn build_recursive(
         return leaf(prims);
     }
     let split = if depth < MAX_SAH_DEPTH {
-        choose_split(prims, &extent)
+        choose_split(prims, &extent, bins)
     } else {
         split_in_middle(prims, extent.centroids.to_bounds().max_axis())
     };
@@ -830,13 +839,16 @@ fn build_recursive(
     let (left, right) = prims.split_at_mut(mid);
     let children = if left.len() + right.len() > PARALLEL_THRESHOLD {
         rayon::join(
-            || build_recursive(left, start, depth + 1, left_extent),
-            || build_recursive(right, start + mid, depth + 1, right_extent),
+            || build_recursive(left, start, depth + 1, left_extent, bins),
+            || {
+                let bins = &mut [[Bin::EMPTY; BINS]; 3];
+                build_recursive(right, start + mid, depth + 1, right_extent, bins)
+            },
         )
     } else {
         (
-            build_recursive(left, start, depth + 1, left_extent),
-            build_recursive(right, start + mid, depth + 1, right_extent),
+            build_recursive(left, start, depth + 1, left_extent, bins),
+            build_recursive(right, start + mid, depth + 1, right_extent, bins),
         )
     };
     BuildNode::inner(extent.bounds.to_bounds(), [children.0, children.1])
@@ -884,15 +896,24 @@ type Bins = [[Bin; BINS]; 3];
 struct Binning {
     lo: Vec3A,
     scale: Vec3A,
+    /// Bins in use, fewer for small nodes (see [`Binning::new`]).
+    count: usize,
 }
 
 impl Binning {
-    fn new(centroids: &Box3A) -> Self {
+    /// Binning for `n` primitives. Small nodes get fewer bins, `4 + n/20`
+    /// up to [`BINS`] (the rule of Wald 2007 §4.2 as Embree applies it):
+    /// the sweep over the bins is a fixed cost per node, which dominates
+    /// for the half million small nodes of a million-triangle mesh, while a
+    /// few primitives gain little from fine bins.
+    fn new(centroids: &Box3A, n: usize) -> Self {
+        let count = (4 + n / 20).min(BINS);
         let extent = centroids.max - centroids.min;
         let positive = extent.cmpgt(Vec3A::ZERO);
         Self {
             lo: centroids.min,
-            scale: Vec3A::select(positive, BINS as f32 / extent, Vec3A::ZERO),
+            scale: Vec3A::select(positive, count as f32 / extent, Vec3A::ZERO),
+            count,
         }
     }
 
@@ -900,19 +921,30 @@ impl Binning {
     /// too, so that primitives land exactly where binning counted them.
     #[inline]
     fn bins(&self, c: Vec3A) -> [usize; 3] {
-        let f = ((c - self.lo) * self.scale).min(Vec3A::splat((BINS - 1) as f32));
-        // One vector conversion; the centroid is never below `lo`, and the
-        // minimum tells the compiler the index is in range.
-        f.as_ivec3().to_array().map(|i| (i as usize).min(BINS - 1))
+        let f = ((c - self.lo) * self.scale).min(Vec3A::splat((self.count - 1) as f32));
+        // One vector truncation without Rust's saturating `as` (which
+        // compiled to two branches per axis): the value is in
+        // `0..count` (the centroid is never below `lo`, and `min` maps NaN
+        // to the top bin), and the final minimum lets the compiler drop
+        // the bounds checks.
+        let i = f32x4::new([f.x, f.y, f.z, 0.0]).fast_trunc_int().to_array();
+        [0, 1, 2].map(|a| (i[a] as usize).min(BINS - 1))
     }
 }
 
-fn bin(prims: &[BuildPrim], binning: &Binning) -> Bins {
+/// Bins `prims` into `bins`, whose first `binning.count` bins per axis
+/// must be empty. Filled in place: returning the 2 KB array by value made
+/// a copy per node.
+fn bin(prims: &[BuildPrim], binning: &Binning, bins: &mut Bins) {
     if prims.len() > PARALLEL_BINNING {
         use rayon::prelude::*;
-        return prims
+        let sum = prims
             .par_chunks(BINNING_CHUNK)
-            .map(|c| bin(c, binning))
+            .map(|c| {
+                let mut b = [[Bin::EMPTY; BINS]; 3];
+                bin(c, binning, &mut b);
+                b
+            })
             .reduce(
                 || [[Bin::EMPTY; BINS]; 3],
                 |mut a, b| {
@@ -922,8 +954,9 @@ fn bin(prims: &[BuildPrim], binning: &Binning) -> Bins {
                     a
                 },
             );
+        *bins = sum;
+        return;
     }
-    let mut bins = [[Bin::EMPTY; BINS]; 3];
     for p in prims {
         for (axis, i) in binning.bins(p.centroid2()).into_iter().enumerate() {
             let b = &mut bins[axis][i];
@@ -931,22 +964,21 @@ fn bin(prims: &[BuildPrim], binning: &Binning) -> Bins {
             b.load = b.load.add(p.cost());
         }
     }
-    bins
 }
 
 /// The best split of one axis's bins: its SAH cost (unnormalised) and the
 /// first bin of the right side.
-fn best_split_of(bins: &[Bin; BINS]) -> (f32, usize) {
+fn best_split_of(bins: &[Bin]) -> (f32, usize) {
     // Sweep from the right for the suffix costs, then from the left.
     let mut right_cost = [0.0; BINS];
     let mut acc = Bin::EMPTY;
-    for i in (1..BINS).rev() {
+    for i in (1..bins.len()).rev() {
         acc = acc.union(bins[i]);
         right_cost[i] = acc.cost();
     }
     let mut best = (f32::INFINITY, 0);
     let mut left = Bin::EMPTY;
-    for i in 0..BINS - 1 {
+    for i in 0..bins.len() - 1 {
         left = left.union(bins[i]);
         let cost = left.cost() + right_cost[i + 1];
         if cost < best.0 {
@@ -960,21 +992,28 @@ fn best_split_of(bins: &[Bin; BINS]) -> (f32, usize) {
 /// fast construction of SAH-based bounding volume hierarchies") and
 /// partitions `prims` around it: the split position and both sides'
 /// extents; `None` means "make a leaf".
-fn choose_split(prims: &mut [BuildPrim], extent: &Extent) -> Option<(usize, Extent, Extent)> {
-    let binning = Binning::new(&extent.centroids);
-    let bins = bin(prims, &binning);
+fn choose_split(
+    prims: &mut [BuildPrim],
+    extent: &Extent,
+    bins: &mut Bins,
+) -> Option<(usize, Extent, Extent)> {
+    let binning = Binning::new(&extent.centroids, prims.len());
+    for axis in bins.iter_mut() {
+        axis[..binning.count].fill(Bin::EMPTY);
+    }
+    bin(prims, &binning, bins);
     // An axis whose centroids all coincide has every primitive in bin 0
     // and offers no split.
     let axes = (0..3).filter(|&a| binning.scale[a] > 0.0);
     let Some((axis, (best_cost, split))) = axes
-        .map(|a| (a, best_split_of(&bins[a])))
+        .map(|a| (a, best_split_of(&bins[a][..binning.count])))
         .min_by(|x, y| x.1 .0.total_cmp(&y.1 .0))
     else {
         return split_in_middle(prims, 0);
     };
     let parent_area = extent.bounds.area().max(f32::MIN_POSITIVE);
     let split_cost = TRAVERSAL_COST + best_cost / parent_area;
-    let leaf_cost = bins[axis]
+    let leaf_cost = bins[axis][..binning.count]
         .iter()
         .fold(Load::default(), |l, b| l.union(b.load))
         .cost();

@@ -36,22 +36,20 @@ struct Packet {
 }
 
 impl TrianglePackets {
-    /// Packs `tris` (vertices and an id) in order, four to a packet;
-    /// `None` marks an entry that is not a triangle (or padding). In
-    /// parallel: a million-triangle mesh has a quarter million packets.
-    pub fn new(tris: &[Option<([Vec3; 3], u32)>]) -> Self {
+    /// Packs entries `0..len`, where `tri(i)` gives entry `i`'s vertices
+    /// and id, four to a packet; `None` marks an entry that is not a
+    /// triangle (or padding). In parallel, and straight from the caller's
+    /// data: a million-triangle mesh has a quarter million packets, and an
+    /// intermediate list of them would be 40 MB written and read again.
+    pub fn new(len: usize, tri: impl Fn(usize) -> Option<([Vec3; 3], u32)> + Sync) -> Self {
         use rayon::prelude::*;
-        let lane = |quad: &[Option<([Vec3; 3], u32)>], i: usize| {
-            quad.get(i)
-                .copied()
-                .flatten()
-                .unwrap_or(([Vec3::NAN; 3], 0))
-        };
-        let (packets, any) = tris
-            .par_chunks(4)
-            .map(|quad| {
+        let (packets, any) = (0..len.div_ceil(4))
+            .into_par_iter()
+            .map(|q| {
+                let quad: [Option<([Vec3; 3], u32)>; 4] =
+                    std::array::from_fn(|l| (4 * q + l < len).then(|| tri(4 * q + l)).flatten());
                 let has_triangle = quad.iter().any(Option::is_some);
-                let quad: [([Vec3; 3], u32); 4] = std::array::from_fn(|i| lane(quad, i));
+                let quad = quad.map(|t| t.unwrap_or(([Vec3::NAN; 3], 0)));
                 let packet = Packet {
                     v: std::array::from_fn(|v| {
                         std::array::from_fn(|axis| {
@@ -375,7 +373,7 @@ mod tests {
     #[test]
     fn four_wide_test_agrees_with_the_scalar_one() {
         let tris = octahedron_grid(6);
-        let packets = TrianglePackets::new(&tris.iter().map(|t| Some((*t, 0))).collect::<Vec<_>>());
+        let packets = TrianglePackets::new(tris.len(), |i| Some((tris[i], 0)));
         let mut rng = Pcg32::new(3, 4);
         let mut hits = 0;
         for _ in 0..4000 {
@@ -402,7 +400,7 @@ mod tests {
         }
         assert!(hits > 1000);
         // Non-triangle (NaN) entries are never hit.
-        let mixed = TrianglePackets::new(&[None, Some((tris[0], 7)), None]);
+        let mixed = TrianglePackets::new(3, |i| (i == 1).then_some((tris[0], 7)));
         let c = (tris[0][0] + tris[0][1] + tris[0][2]) / 3.0;
         let ray = Ray::new(c * 3.0, -c.normalize());
         assert_eq!(
@@ -413,7 +411,7 @@ mod tests {
         );
         assert_eq!(mixed.id(1), 7);
         assert!(mixed.has_triangles(0));
-        assert!(!TrianglePackets::new(&[None]).has_triangles(0));
+        assert!(!TrianglePackets::new(1, |_| None).has_triangles(0));
     }
 
     #[test]
