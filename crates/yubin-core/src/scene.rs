@@ -205,7 +205,8 @@ impl Scene {
         // A triangle hit keeps only its packet id: its shape and primitive
         // are looked up once, after traversal.
         let mut closest = None;
-        g.bvh.closest_leaves(ray, |start, count, r| {
+        let prefetch = |start| g.tris.prefetch(start);
+        g.bvh.closest_leaves(ray, &prefetch, |start, count, r| {
             let mut best = None;
             // The leaf's triangles, four at a time; other items are NaN lanes.
             if g.packet_has_triangles(start) {
@@ -288,7 +289,8 @@ impl Scene {
     /// True when any item of the group blocks the ray.
     fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
         let mut shear: Option<WatertightRay> = None;
-        g.bvh.any_leaves(ray, |start, count, r| {
+        let prefetch = |start| g.tris.prefetch(start);
+        g.bvh.any_leaves(ray, &prefetch, |start, count, r| {
             if g.packet_has_triangles(start)
                 && shear
                     .get_or_insert_with(|| WatertightRay::new(r))
