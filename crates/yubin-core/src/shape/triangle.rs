@@ -232,10 +232,17 @@ impl WatertightRay {
         let zero = f32x4::ZERO;
         let lanes = (1u32 << count) - 1;
         let bits = |m: f32x4| m.move_mask() as u32;
-        // Lanes with an edge function of exactly 0 are redone in f64 below.
-        let exact = bits(u.cmp_eq(zero) | v.cmp_eq(zero) | w.cmp_eq(zero)) & lanes;
-        let negative = bits(u.cmp_lt(zero) | v.cmp_lt(zero) | w.cmp_lt(zero));
-        let positive = bits(u.cmp_gt(zero) | v.cmp_gt(zero) | w.cmp_gt(zero));
+        // An edge function that is not 0 in f32 has its exact sign (the
+        // two products are rounded monotonically), so a lane with one
+        // strictly negative and one strictly positive is a miss for sure.
+        // The others have all three ≥ 0 or all ≤ 0; those with one of them
+        // exactly 0 (then the least or the greatest) are redone in f64
+        // below. Minimum and maximum say both with fewer instructions than
+        // testing u, v, w one by one. (A NaN lane, padding, has a NaN
+        // determinant and is never a hit; the plain min/max suffice.)
+        let (low, high) = (u.fast_min(v).fast_min(w), u.fast_max(v).fast_max(w));
+        let mixed = bits(low.cmp_lt(zero) & high.cmp_gt(zero));
+        let exact = bits(low.cmp_eq(zero) | high.cmp_eq(zero)) & lanes & !mixed;
         let det = u + v + w;
         // The distance is t_scaled / det; compare t_scaled with the range
         // scaled by |det| instead, so that only hit lanes pay a division
@@ -247,7 +254,7 @@ impl WatertightRay {
             t_signed.cmp_gt(f32x4::splat(self.t_min) * det_abs)
                 & t_signed.cmp_lt(f32x4::splat(t_max) * det_abs),
         );
-        let mut hit = lanes & !exact & !(negative & positive) & !bits(det.cmp_eq(zero)) & in_range;
+        let mut hit = lanes & !exact & !mixed & !bits(det.cmp_eq(zero)) & in_range;
         let (t_scaled, v, w, det) = (
             t_scaled.to_array(),
             v.to_array(),
