@@ -79,6 +79,24 @@ impl Node {
             f32x8::new([f32::NEG_INFINITY; WIDTH]),
         ],
     };
+
+    /// A node over children with these boxes (the rest empty); the child
+    /// codes are filled in afterwards.
+    fn with_boxes(boxes: impl Iterator<Item = Bounds3>) -> Self {
+        let (mut min, mut max) = ([[f32::INFINITY; WIDTH]; 3], [[f32::NEG_INFINITY; WIDTH]; 3]);
+        for (slot, b) in boxes.enumerate() {
+            for a in 0..3 {
+                min[a][slot] = b.min[a];
+                max[a][slot] = b.max[a];
+            }
+        }
+        let mut node = Self::EMPTY;
+        for a in 0..3 {
+            node.planes[a] = f32x8::new(min[a]);
+            node.planes[a + 3] = f32x8::new(max[a]);
+        }
+        node
+    }
 }
 
 /// A BVH over primitives identified by their index in the bounds slice
@@ -250,8 +268,8 @@ impl Load {
     }
 }
 
-/// A node of the binary SAH tree, which [`Bvh::collapse`] turns into
-/// 8-wide nodes.
+/// A node of the binary SAH tree, which [`collapse`] turns into 8-wide
+/// nodes.
 enum BuildNode {
     Leaf {
         bounds: Bounds3,
@@ -262,6 +280,8 @@ enum BuildNode {
     },
     Inner {
         bounds: Bounds3,
+        /// Primitives below, to decide what is worth doing in parallel.
+        prims: usize,
         children: Box<[BuildNode; 2]>,
         /// For `i` = 1..=8: the least SAH cost of this subtree when it may
         /// fill at most `i` child slots of a wide node (index `i` − 1).
@@ -277,6 +297,13 @@ impl BuildNode {
     fn bounds(&self) -> Bounds3 {
         match self {
             BuildNode::Leaf { bounds, .. } | BuildNode::Inner { bounds, .. } => *bounds,
+        }
+    }
+
+    fn prims(&self) -> usize {
+        match self {
+            BuildNode::Leaf { count, .. } => *count,
+            BuildNode::Inner { prims, .. } => *prims,
         }
     }
 
@@ -317,6 +344,7 @@ impl BuildNode {
         }
         BuildNode::Inner {
             bounds,
+            prims: left.prims() + right.prims(),
             children: Box::new(children),
             slot_cost,
             slots_left,
@@ -324,8 +352,9 @@ impl BuildNode {
     }
 
     /// The subtrees that fill at most `slots` child slots of a wide node,
-    /// as the dynamic program chose them.
-    fn fill<'a>(&'a self, slots: usize, out: &mut ArrayVec<&'a BuildNode, WIDTH>) {
+    /// as the dynamic program chose them. Takes the tree apart: the binary
+    /// nodes opened here are freed.
+    fn fill(self, slots: usize, out: &mut ArrayVec<BuildNode, WIDTH>) {
         match self {
             BuildNode::Inner {
                 children,
@@ -333,12 +362,80 @@ impl BuildNode {
                 ..
             } if slots_left[slots - 1] != 0 => {
                 let k = slots_left[slots - 1] as usize;
-                children[0].fill(k, out);
-                children[1].fill(slots - k, out);
+                let [left, right] = *children;
+                left.fill(k, out);
+                right.fill(slots - k, out);
             }
-            _ => out.push(self),
+            node => out.push(node),
         }
     }
+}
+
+/// Turns a binary subtree into 8-wide nodes appended to `nodes` (depth
+/// first: a node, then its children's subtrees in slot order), freeing the
+/// binary tree on the way; returns the subtree's child code. The children
+/// of a large subtree are collapsed in parallel, each into a list of its
+/// own that is then appended in slot order, so the layout is the same as
+/// a serial collapse's.
+fn collapse(node: BuildNode, nodes: &mut Vec<Node>) -> u32 {
+    use rayon::prelude::*;
+    let (children, slots_left, prims) = match node {
+        BuildNode::Leaf { start, count, .. } => return leaf_code(start, count),
+        BuildNode::Inner {
+            children,
+            slots_left,
+            prims,
+            ..
+        } => (children, slots_left, prims),
+    };
+    // A wide node's slots: the eight-slot choice of the dynamic program
+    // (never "one slot", which is this node itself).
+    let k = (slots_left[WIDTH - 1] as usize).clamp(1, WIDTH - 1);
+    let mut kids: ArrayVec<BuildNode, WIDTH> = ArrayVec::new();
+    let [left, right] = *children;
+    left.fill(k, &mut kids);
+    right.fill(WIDTH - k, &mut kids);
+    let index = nodes.len();
+    nodes.push(Node::with_boxes(kids.iter().map(BuildNode::bounds)));
+    let codes: ArrayVec<u32, WIDTH> = if prims > PARALLEL_THRESHOLD {
+        let subtrees: Vec<(u32, Vec<Node>)> = kids
+            .into_iter()
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|kid| {
+                let mut sub = Vec::new();
+                (collapse(kid, &mut sub), sub)
+            })
+            .collect();
+        subtrees
+            .into_iter()
+            .map(|(code, sub)| append_subtree(nodes, code, sub))
+            .collect()
+    } else {
+        kids.into_iter().map(|kid| collapse(kid, nodes)).collect()
+    };
+    nodes[index].child[..codes.len()].copy_from_slice(&codes);
+    index as u32
+}
+
+/// Appends the nodes of a subtree collapsed on its own (its node codes
+/// count from its first node); returns its code, now an index in `nodes`.
+fn append_subtree(nodes: &mut Vec<Node>, code: u32, mut sub: Vec<Node>) -> u32 {
+    let offset = nodes.len() as u32;
+    let shift = |c: u32| {
+        if c == EMPTY || c & LEAF_BIT != 0 {
+            c
+        } else {
+            c + offset
+        }
+    };
+    for node in &mut sub {
+        for c in &mut node.child {
+            *c = shift(*c);
+        }
+    }
+    nodes.append(&mut sub);
+    shift(code)
 }
 
 /// A ray prepared for box tests: per axis, the reciprocal direction and
@@ -462,15 +559,16 @@ impl Bvh {
         }
         let extent = Extent::of(&prims);
         let root = build_recursive(&mut prims, 0, 0, extent, &mut [[Bin::EMPTY; BINS]; 3]);
-        let mut bvh = Self {
-            nodes: Vec::with_capacity(prims.len() / 2 + 1),
+        let bounds = root.bounds();
+        let mut nodes = Vec::new();
+        let root = collapse(root, &mut nodes);
+        nodes.shrink_to_fit();
+        Self {
+            nodes,
             prims: prims.iter().map(BuildPrim::index).collect(),
-            root: EMPTY,
-            bounds: root.bounds(),
-        };
-        bvh.root = bvh.collapse(&root);
-        bvh.nodes.shrink_to_fit();
-        bvh
+            root,
+            bounds,
+        }
     }
 
     /// Bounds of everything (empty for an empty BVH).
@@ -545,42 +643,6 @@ impl Bvh {
     /// Memory held by the structure (nodes and primitive indices).
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node>() + self.prims.capacity() * 4
-    }
-
-    /// Turns a binary subtree into 8-wide nodes; returns its child code.
-    fn collapse(&mut self, node: &BuildNode) -> u32 {
-        let (children, slots_left) = match node {
-            BuildNode::Leaf { start, count, .. } => return leaf_code(*start, *count),
-            BuildNode::Inner {
-                children,
-                slots_left,
-                ..
-            } => (children, slots_left),
-        };
-        // A wide node's slots: the eight-slot choice of the dynamic program
-        // (never "one slot", which is this node itself).
-        let k = (slots_left[WIDTH - 1] as usize).clamp(1, WIDTH - 1);
-        let mut kids: ArrayVec<&BuildNode, WIDTH> = ArrayVec::new();
-        children[0].fill(k, &mut kids);
-        children[1].fill(WIDTH - k, &mut kids);
-        let index = self.nodes.len();
-        self.nodes.push(Node::EMPTY);
-        let mut node4 = Node::EMPTY;
-        let (mut min, mut max) = ([[f32::INFINITY; WIDTH]; 3], [[f32::NEG_INFINITY; WIDTH]; 3]);
-        for (slot, kid) in kids.iter().enumerate() {
-            let b = kid.bounds();
-            for a in 0..3 {
-                min[a][slot] = b.min[a];
-                max[a][slot] = b.max[a];
-            }
-            node4.child[slot] = self.collapse(kid);
-        }
-        for a in 0..3 {
-            node4.planes[a] = f32x8::new(min[a]);
-            node4.planes[a + 3] = f32x8::new(max[a]);
-        }
-        self.nodes[index] = node4;
-        index as u32
     }
 
     /// Finds the closest hit. `hit` tests primitive `i` against the ray
@@ -955,8 +1017,19 @@ impl Binning {
         }
     }
 
-    /// The bin on each axis, all three at once. Partitioning calls this
-    /// too, so that primitives land exactly where binning counted them.
+    /// Whether `c` falls in a bin below `split` on `axis`: exactly when
+    /// [`Binning::bins`] says so (the same rounded product; for it, which
+    /// is never negative, truncating below the integer `split` is being
+    /// below it, and NaN, put in the top bin there, compares false here),
+    /// with one axis's arithmetic instead of three.
+    #[inline]
+    fn below(&self, c: Vec3A, axis: usize, split: usize) -> bool {
+        let a = axis.min(2);
+        (c.to_array()[a] - self.lo.to_array()[a]) * self.scale.to_array()[a] < split as f32
+    }
+
+    /// The bin on each axis, all three at once, as partitioning sees it
+    /// (see [`Binning::below`]).
     #[inline]
     fn bins(&self, c: Vec3A) -> [usize; 3] {
         let f = ((c - self.lo) * self.scale).min(Vec3A::splat((self.count - 1) as f32));
@@ -1058,7 +1131,7 @@ fn choose_split(
     if prims.len() <= MAX_LEAF && split_cost >= leaf_cost {
         return None;
     }
-    let (mid, left, right) = partition(prims, &|p| binning.bins(p.centroid2())[axis] < split);
+    let (mid, left, right) = partition(prims, &|p| binning.below(p.centroid2(), axis, split));
     if mid == 0 || mid == prims.len() {
         return split_in_middle(prims, axis);
     }
