@@ -14,6 +14,7 @@
 use crate::math::{Bounds3, Ray};
 use arrayvec::ArrayVec;
 use glam::{Vec3A, Vec4};
+use rayon::prelude::*;
 use wide::{f32x4, f32x8, CmpLe};
 
 /// Children per node.
@@ -378,7 +379,6 @@ impl BuildNode {
 /// own that is then appended in slot order, so the layout is the same as
 /// a serial collapse's.
 fn collapse(node: BuildNode, nodes: &mut Vec<Node>) -> u32 {
-    use rayon::prelude::*;
     let (children, slots_left, prims) = match node {
         BuildNode::Leaf { start, count, .. } => return leaf_code(start, count),
         BuildNode::Inner {
@@ -534,7 +534,6 @@ impl Bvh {
     /// Like [`Bvh::build`], with `cost(i)` the expected cost of testing
     /// primitive `i` relative to visiting a node, for the SAH.
     pub fn build_with_costs(bounds: &[Bounds3], cost: impl Fn(usize) -> PrimCost + Sync) -> Self {
-        use rayon::prelude::*;
         let usable = |b: &Bounds3| !b.is_empty() && b.min.is_finite() && b.max.is_finite();
         // Collected at full length and then filtered: a filtered parallel
         // collect has no length to write to and gathers per-thread lists
@@ -565,7 +564,7 @@ impl Bvh {
         nodes.shrink_to_fit();
         Self {
             nodes,
-            prims: prims.iter().map(BuildPrim::index).collect(),
+            prims: prims.par_iter().map(BuildPrim::index).collect(),
             root,
             bounds,
         }
@@ -586,7 +585,7 @@ impl Bvh {
     /// arrays by it get leaves whose primitives sit next to each other.
     pub fn take_leaf_order(&mut self) -> Vec<u32> {
         let order = std::mem::take(&mut self.prims);
-        self.prims = (0..order.len() as u32).collect();
+        self.prims = (0..order.len() as u32).into_par_iter().collect();
         order
     }
 
@@ -614,7 +613,7 @@ impl Bvh {
                 *c = repack(*c);
             }
         }
-        self.prims = (0..slots.len() as u32).collect();
+        self.prims = (0..slots.len() as u32).into_par_iter().collect();
         slots
     }
 
@@ -872,7 +871,6 @@ impl Extent {
 
     fn of(prims: &[BuildPrim]) -> Self {
         if prims.len() > PARALLEL_BINNING {
-            use rayon::prelude::*;
             return prims
                 .par_chunks(BINNING_CHUNK)
                 .map(Self::of)
@@ -1048,7 +1046,6 @@ impl Binning {
 /// a copy per node.
 fn bin(prims: &[BuildPrim], binning: &Binning, bins: &mut Bins) {
     if prims.len() > PARALLEL_BINNING {
-        use rayon::prelude::*;
         let sum = prims
             .par_chunks(BINNING_CHUNK)
             .map(|c| {
