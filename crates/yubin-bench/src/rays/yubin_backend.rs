@@ -68,7 +68,8 @@ pub fn build(
                 let shape = scene.bvh_stats();
                 stats.note = format!(
                     "BVH {:.1} MiB (retained by `build`) + item list {:.1} MiB (retained by `add_shape`); \
-                     {} nodes ({:.2} children each, histogram {:?}), {} leaves ({:.2} triangles each)",
+                     {} nodes ({:.2} children each, histogram {:?}), {} leaves ({:.2} triangles each); \
+                     SAH: nodes {:.3}, leaves {:.3} (expected visits per ray through the root box)",
                     super::mib(retained.max(0) as usize),
                     super::mib(items.max(0) as usize),
                     shape.nodes,
@@ -76,6 +77,8 @@ pub fn build(
                     shape.children_histogram,
                     shape.leaves,
                     shape.leaf_prims as f64 / shape.leaves.max(1) as f64,
+                    shape.node_sah,
+                    shape.leaf_sah,
                 );
                 kept = Some(scene);
             }
