@@ -868,10 +868,11 @@ impl Bvh {
         }
         #[cfg(target_arch = "x86_64")]
         if let Some(node) = self.nodes.get(code as usize) {
-            // Lines 0 and 2 of the four; the adjacent-line prefetcher
-            // brings their pairs.
+            // All four lines (child codes and planes 0, 1-2, 3-4, 5).
             safe_arch::prefetch_t0(node);
+            safe_arch::prefetch_t0(&node.planes[1]);
             safe_arch::prefetch_t0(&node.planes[3]);
+            safe_arch::prefetch_t0(&node.planes[5]);
         }
     }
 }
