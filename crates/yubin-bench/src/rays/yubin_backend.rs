@@ -69,7 +69,8 @@ pub fn build(
                 stats.note = format!(
                     "BVH {:.1} MiB (retained by `build`) + item list {:.1} MiB (retained by `add_shape`); \
                      {} nodes ({:.2} children each, histogram {:?}), {} leaves ({:.2} triangles each); \
-                     SAH: nodes {:.3}, leaves {:.3} (expected visits per ray through the root box)",
+                     SAH: nodes {:.3}, leaves {:.3} (expected visits per ray through the root box); \
+                     depth {} (area-weighted mean over leaves {:.2})",
                     super::mib(retained.max(0) as usize),
                     super::mib(items.max(0) as usize),
                     shape.nodes,
@@ -79,6 +80,8 @@ pub fn build(
                     shape.leaf_prims as f64 / shape.leaves.max(1) as f64,
                     shape.node_sah,
                     shape.leaf_sah,
+                    shape.depth,
+                    shape.leaf_depth,
                 );
                 kept = Some(scene);
             }

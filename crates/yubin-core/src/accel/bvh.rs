@@ -139,6 +139,13 @@ pub struct BvhStats {
     pub node_sah: f64,
     /// The same sum over the leaves' boxes: expected leaf visits.
     pub leaf_sah: f64,
+    /// Wide nodes on the longest path from the root to a leaf (the root
+    /// counts; Embree prints the same as "depth").
+    pub depth: usize,
+    /// Wide nodes above a leaf, averaged over leaves weighted by their
+    /// boxes' areas: the length of the chain of dependent node fetches a
+    /// ray makes to reach a leaf.
+    pub leaf_depth: f64,
 }
 
 /// What testing one primitive costs, for the SAH.
@@ -652,6 +659,24 @@ impl Bvh {
             st.children_histogram[used] += 1;
         }
         let root_area = f64::from(self.bounds().surface_area());
+        if self.root & LEAF_BIT == 0 && self.root != EMPTY {
+            // Depth-first: (node, wide nodes from the root down to it).
+            let mut todo = vec![(self.root, 1)];
+            let mut weighted = (0.0, 0.0);
+            while let Some((code, depth)) = todo.pop() {
+                let n = &self.nodes[code as usize];
+                st.depth = st.depth.max(depth);
+                for (slot, &c) in n.child.iter().enumerate().filter(|(_, &c)| c != EMPTY) {
+                    if c & LEAF_BIT == 0 {
+                        todo.push((c, depth + 1));
+                    } else {
+                        let area = f64::from(n.child_box(slot).surface_area());
+                        weighted = (weighted.0 + area * depth as f64, weighted.1 + area);
+                    }
+                }
+            }
+            st.leaf_depth = weighted.0 / weighted.1.max(f64::MIN_POSITIVE);
+        }
         if root_area > 0.0 {
             // The root box is crossed by definition.
             let root_is_leaf = self.root & LEAF_BIT != 0;
