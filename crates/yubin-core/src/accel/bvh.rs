@@ -1354,6 +1354,74 @@ mod tests {
         }
     }
 
+    /// Partitioning must put every primitive on the side binning counted
+    /// it on, or the SAH's bin counts would not describe the children.
+    #[test]
+    fn partition_side_matches_binning() {
+        // Binning `cs` as a node of `n` primitives would.
+        fn check(cs: &[Vec3A], n: usize) {
+            let bounds = cs.iter().fold(Box3A::EMPTY, |b, &c| b.union_point(c));
+            let binning = Binning::new(&bounds, n);
+            for &c in cs {
+                let bins = binning.bins(c);
+                for (axis, &bin) in bins.iter().enumerate() {
+                    assert!(bin < binning.count);
+                    for split in 1..binning.count {
+                        assert_eq!(
+                            binning.below(c, axis, split),
+                            bin < split,
+                            "{c} {axis} {split}"
+                        );
+                    }
+                }
+            }
+        }
+        let mut rng = Pcg32::new(3, 1);
+        for n in [2, 9, 60, 400, 5000] {
+            // Half the sets on the integer lattice 0..=bins, where the
+            // scale is 1 and every centroid falls exactly on a bin edge.
+            let count = (4 + n / 20).min(BINS);
+            let lattice = |rng: &mut Pcg32| (rng.next_f32() * (count + 1) as f32).floor();
+            for on_lattice in [false, true] {
+                let mut cs: Vec<Vec3A> = (0..n)
+                    .map(|_| {
+                        if on_lattice {
+                            Vec3A::new(lattice(&mut rng), lattice(&mut rng), lattice(&mut rng))
+                        } else {
+                            Vec3A::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 8.0
+                        }
+                    })
+                    .collect();
+                if on_lattice {
+                    cs.extend([Vec3A::ZERO, Vec3A::splat(count as f32)]);
+                }
+                check(&cs, n);
+            }
+        }
+    }
+
+    #[test]
+    fn stats_describe_the_tree() {
+        let mut rng = Pcg32::new(5, 2);
+        let bounds: Vec<Bounds3> = spheres(3000, &mut rng)
+            .iter()
+            .map(|&(c, r)| Bounds3 {
+                min: c - Vec3::splat(r),
+                max: c + Vec3::splat(r),
+            })
+            .collect();
+        let st = Bvh::build(&bounds).stats();
+        assert_eq!(st.leaf_prims, 3000);
+        assert_eq!(st.children_histogram.iter().sum::<usize>(), st.nodes);
+        // The root counts once; every further node's box lies inside it.
+        assert!(st.node_sah >= 1.0 && st.node_sah < st.nodes as f64);
+        assert!(st.leaf_sah > 0.0 && st.leaf_sah < st.leaves as f64);
+        assert!(st.leaf_depth >= 1.0 && st.leaf_depth <= st.depth as f64);
+        // 3000 spheres in leaves of at most 4 under 8-wide nodes need at
+        // least four levels.
+        assert!(st.depth >= 4, "{st:?}");
+    }
+
     #[test]
     fn empty_bvh_hits_nothing() {
         let bvh = Bvh::build(&[]);
