@@ -705,27 +705,27 @@ impl SceneBuilder {
             // Gathering the vertices is random access into the meshes, so
             // it runs in parallel, packet by packet.
             g.tris = TrianglePackets::new(order.len(), |i| {
-                let (shape, prim) = if only_triangles {
+                let (shape, prim, id) = if only_triangles {
                     // The items are then the runs end to end (a mesh's
                     // triangles are added together, in order): item `p`
                     // is triangle id `p`, and reading the item list, a
                     // random access per triangle, is saved.
-                    triangle_of_id(runs, order[i]?)
+                    let id = order[i]?;
+                    let (shape, prim) = triangle_of_id(runs, id);
+                    (shape, prim, id)
                 } else {
                     let Item::Triangle { shape, prim } = item_at(i) else {
                         return None;
                     };
-                    (shape, prim)
+                    // Runs are in the order shapes were added, so sorted
+                    // by shape.
+                    let run = runs.binary_search_by_key(&shape, |r| r.shape).ok()?;
+                    (shape, prim, runs[run].first + prim)
                 };
                 let Shape::Mesh(m) = shapes[shape as usize] else {
                     return None;
                 };
-                // Runs are in the order shapes were added, so sorted by shape.
-                let run = runs.binary_search_by_key(&shape, |r| r.shape).ok()?;
-                Some((
-                    meshes[m.mesh as usize].triangle(prim as usize),
-                    runs[run].first + prim,
-                ))
+                Some((meshes[m.mesh as usize].triangle(prim as usize), id))
             });
             if !g.only_triangles {
                 g.items = (0..order.len()).into_par_iter().map(item_at).collect();
@@ -862,10 +862,49 @@ mod tests {
         best
     }
 
+    /// Two meshes in the world and, with `instanced`, two in an instanced
+    /// group: groups of triangles only (the world's when nothing is
+    /// instanced), which keep no item list and whose packets are gathered
+    /// by triangle id, over several runs.
+    fn triangles_only_scene(instanced: bool) -> Scene {
+        let mut b = SceneBuilder::new();
+        let g = b.add_group();
+        for (group, place) in [
+            (0, Affine3A::from_rotation_z(0.3)),
+            (0, Affine3A::from_translation(Vec3::new(-2.0, 1.0, 0.5))),
+            (g, Affine3A::from_scale(Vec3::splat(0.4))),
+            (g, Affine3A::from_translation(Vec3::new(0.0, 0.0, 0.9))),
+        ] {
+            let mut cube = cube_mesh();
+            cube.transform(&t(place));
+            let mesh = b.add_mesh(cube);
+            b.add_shape_to(group, Shape::Mesh(MeshShape { mesh }), None, None)
+                .unwrap();
+        }
+        if instanced {
+            b.add_instance(g, t(Affine3A::from_translation(Vec3::new(1.5, -1.5, 2.0))))
+                .unwrap();
+        }
+        b.build().unwrap()
+    }
+
     #[test]
     fn bvh_closest_hit_equals_brute_force_for_every_shape_kind_and_instances() {
-        let scene = mixed_scene();
-        let mut rng = Pcg32::new(42, 0);
+        assert_closest_hit_is_brute_force(&mixed_scene(), 42);
+    }
+
+    #[test]
+    fn bvh_closest_hit_equals_brute_force_in_groups_of_triangles_only() {
+        let world = triangles_only_scene(false);
+        assert!(world.groups[0].only_triangles);
+        assert_closest_hit_is_brute_force(&world, 7);
+        let instanced = triangles_only_scene(true);
+        assert!(instanced.groups[1].only_triangles);
+        assert_closest_hit_is_brute_force(&instanced, 8);
+    }
+
+    fn assert_closest_hit_is_brute_force(scene: &Scene, seed: u64) {
+        let mut rng = Pcg32::new(seed, 0);
         let mut hits = 0;
         for _ in 0..20_000 {
             let o = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 10.0;
@@ -877,7 +916,7 @@ mod tests {
                     .normalize()
             };
             let ray = Ray::new(o, d);
-            let expected = brute_force(&scene, &ray);
+            let expected = brute_force(scene, &ray);
             let got = scene.intersect(&ray);
             match (expected, got) {
                 (None, None) => {}
