@@ -114,6 +114,9 @@ impl Node {
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
     nodes: Vec<Node>,
+    /// The primitive at each leaf position, until [`Bvh::take_leaf_order`]
+    /// hands it over; then empty, and position `i` is primitive `i` (an
+    /// identity list would be 4 bytes per primitive for nothing).
     prims: Vec<u32>,
     /// Child code of the root: a node index or a leaf.
     root: u32,
@@ -605,16 +608,22 @@ impl Bvh {
     /// primitives to match: afterwards primitive `i` in a callback means
     /// position `i` of the returned order. Callers that permute their own
     /// arrays by it get leaves whose primitives sit next to each other.
+    /// The order can be taken once (a second call returns it empty).
     pub fn take_leaf_order(&mut self) -> Vec<u32> {
-        let order = std::mem::take(&mut self.prims);
-        self.prims = (0..order.len() as u32).into_par_iter().collect();
-        order
+        std::mem::take(&mut self.prims)
+    }
+
+    /// The primitive at leaf position `i` (see the `prims` field).
+    #[inline]
+    fn prim_at(&self, i: usize) -> u32 {
+        self.prims.get(i).copied().unwrap_or(i as u32)
     }
 
     /// Like [`Bvh::take_leaf_order`], but every leaf starts at a multiple
     /// of four positions (a leaf holds at most four primitives): slot `i`
     /// of the result is the primitive at position `i`, `None` for padding.
-    /// Callers then store each leaf as one aligned 4-wide packet.
+    /// Callers then store each leaf as one aligned 4-wide packet. Once
+    /// only, and not after [`Bvh::take_leaf_order`].
     pub fn take_leaf_order_packed(&mut self) -> Vec<Option<u32>> {
         let order = std::mem::take(&mut self.prims);
         let mut slots: Vec<Option<u32>> = Vec::with_capacity(order.len() * 2);
@@ -625,7 +634,7 @@ impl Bvh {
             let start = (code & START_MASK) as usize;
             let count = ((code >> 29) & 3) as usize + 1;
             let new_start = slots.len();
-            slots.extend(order[start..start + count].iter().map(|&p| Some(p)));
+            slots.extend((start..start + count).map(|i| order.get(i).copied()));
             slots.resize(new_start + 4, None);
             leaf_code(new_start, count)
         };
@@ -635,7 +644,6 @@ impl Bvh {
                 *c = repack(*c);
             }
         }
-        self.prims = (0..slots.len() as u32).into_par_iter().collect();
         slots
     }
 
@@ -712,7 +720,7 @@ impl Bvh {
         self.closest_leaves(ray, &no_prefetch, |start, count, r| {
             let mut r = *r;
             let mut best = None;
-            for &p in &self.prims[start..start + count] {
+            for p in (start..start + count).map(|i| self.prim_at(i)) {
                 if let Some(t) = hit(p, &r) {
                     r.t_max = t;
                     best = Some(t);
@@ -826,7 +834,7 @@ impl Bvh {
     pub fn any(&self, ray: &Ray, mut hit: impl FnMut(u32, &Ray) -> bool) -> bool {
         let no_prefetch = |_| {};
         self.any_leaves(ray, &no_prefetch, |start, count, r| {
-            self.prims[start..start + count].iter().any(|&p| hit(p, r))
+            (start..start + count).any(|i| hit(self.prim_at(i), r))
         })
     }
 
@@ -1420,6 +1428,54 @@ mod tests {
         // 3000 spheres in leaves of at most 4 under 8-wide nodes need at
         // least four levels.
         assert!(st.depth >= 4, "{st:?}");
+    }
+
+    /// After the order is taken, callbacks see leaf positions, and the
+    /// order maps them back to the primitives.
+    #[test]
+    fn leaf_order_renumbers_the_primitives() {
+        let mut rng = Pcg32::new(9, 3);
+        let prims = spheres(500, &mut rng);
+        let bounds: Vec<Bounds3> = prims
+            .iter()
+            .map(|&(c, r)| Bounds3 {
+                min: c - Vec3::splat(r),
+                max: c + Vec3::splat(r),
+            })
+            .collect();
+        let mut bvh = Bvh::build(&bounds);
+        // From a corner, aimed at random points of the spheres' box.
+        let rays: Vec<Ray> = (0..300)
+            .map(|_| {
+                let target = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 10.0;
+                Ray::new(Vec3::splat(-1.0), (target + 1.0).normalize())
+            })
+            .collect();
+        // The closest sphere of each ray, through `to_prim` from what the
+        // callback is given.
+        let closest = |bvh: &Bvh, ray: &Ray, to_prim: &dyn Fn(u32) -> u32| {
+            let mut ray = *ray;
+            let mut found = None;
+            bvh.closest(&mut ray, |i, r| {
+                let t = hit_sphere(prims[to_prim(i) as usize], r)?;
+                found = Some(to_prim(i));
+                Some(t)
+            });
+            found
+        };
+        let before: Vec<Option<u32>> = rays.iter().map(|r| closest(&bvh, r, &|i| i)).collect();
+        assert!(before.iter().flatten().count() > 50);
+        let order = bvh.take_leaf_order();
+        assert_eq!(order.len(), 500);
+        let after: Vec<Option<u32>> = rays
+            .iter()
+            .map(|r| closest(&bvh, r, &|pos| order[pos as usize]))
+            .collect();
+        assert_eq!(before, after);
+        assert_eq!(
+            bvh.memory_bytes(),
+            bvh.nodes.capacity() * std::mem::size_of::<Node>()
+        );
     }
 
     #[test]
