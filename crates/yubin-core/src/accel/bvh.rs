@@ -1262,6 +1262,16 @@ mod tests {
     use glam::Vec3;
 
     /// Random spheres as primitives (simple exact intersection).
+    fn sphere_bounds(spheres: &[(Vec3, f32)]) -> Vec<Bounds3> {
+        spheres
+            .iter()
+            .map(|&(c, r)| Bounds3 {
+                min: c - Vec3::splat(r),
+                max: c + Vec3::splat(r),
+            })
+            .collect()
+    }
+
     fn spheres(n: usize, rng: &mut Pcg32) -> Vec<(Vec3, f32)> {
         (0..n)
             .map(|_| {
@@ -1290,13 +1300,7 @@ mod tests {
         let mut rng = Pcg32::new(11, 0);
         for n in [1, 7, 100, 5000] {
             let prims = spheres(n, &mut rng);
-            let bounds: Vec<Bounds3> = prims
-                .iter()
-                .map(|&(c, r)| Bounds3 {
-                    min: c - Vec3::splat(r),
-                    max: c + Vec3::splat(r),
-                })
-                .collect();
+            let bounds = sphere_bounds(&prims);
             let bvh = Bvh::build(&bounds);
             for _ in 0..2000 {
                 let o =
@@ -1411,13 +1415,7 @@ mod tests {
     #[test]
     fn stats_describe_the_tree() {
         let mut rng = Pcg32::new(5, 2);
-        let bounds: Vec<Bounds3> = spheres(3000, &mut rng)
-            .iter()
-            .map(|&(c, r)| Bounds3 {
-                min: c - Vec3::splat(r),
-                max: c + Vec3::splat(r),
-            })
-            .collect();
+        let bounds = sphere_bounds(&spheres(3000, &mut rng));
         let st = Bvh::build(&bounds).stats();
         assert_eq!(st.leaf_prims, 3000);
         assert_eq!(st.children_histogram.iter().sum::<usize>(), st.nodes);
@@ -1436,13 +1434,7 @@ mod tests {
     fn leaf_order_renumbers_the_primitives() {
         let mut rng = Pcg32::new(9, 3);
         let prims = spheres(500, &mut rng);
-        let bounds: Vec<Bounds3> = prims
-            .iter()
-            .map(|&(c, r)| Bounds3 {
-                min: c - Vec3::splat(r),
-                max: c + Vec3::splat(r),
-            })
-            .collect();
+        let bounds = sphere_bounds(&prims);
         let mut bvh = Bvh::build(&bounds);
         // From a corner, aimed at random points of the spheres' box.
         let rays: Vec<Ray> = (0..300)
