@@ -330,22 +330,35 @@ fn trace<T: Send>(
     t0.elapsed()
 }
 
-/// Times `query` for every backend on `threads` threads. The 1-thread
-/// results are kept in `first`; 2-thread results are compared with them
-/// and the differences added to `thread_diff`.
-#[allow(clippy::too_many_arguments)]
-fn time_query<T: Clone + PartialEq + Send>(
-    opts: &Options,
-    log: &mut Log,
-    pool: &rayon::ThreadPool,
-    tracers: &[(Backend, Box<dyn Tracer>)],
-    rays: &[BenchRay],
+/// What one timing of a query shares, whichever query it is: the rays,
+/// the backends and the pool of `threads` threads they run on.
+struct QueryRun<'a> {
+    opts: &'a Options,
+    pool: &'a rayon::ThreadPool,
+    tracers: &'a [(Backend, Box<dyn Tracer>)],
+    rays: &'a [BenchRay],
     coherent: bool,
-    (fill, query): (T, Query<T>),
     threads: usize,
+}
+
+/// Times `query` for every backend. The 1-thread results are kept in
+/// `first`; 2-thread results are compared with them and the differences
+/// added to `thread_diff`.
+fn time_query<T: Clone + PartialEq + Send>(
+    run: &QueryRun<'_>,
+    log: &mut Log,
+    (fill, query): (T, Query<T>),
     first: &mut [Vec<T>],
     thread_diff: &mut usize,
 ) -> (Vec<Measurement>, Option<f64>) {
+    let QueryRun {
+        opts,
+        pool,
+        tracers,
+        rays,
+        coherent,
+        threads,
+    } = *run;
     let n = rays.len();
     let mut outs = vec![vec![fill; n]; tracers.len()];
     let result = {
@@ -617,35 +630,20 @@ fn bench_mesh(
         let n = rays.len();
         for (qi, query) in QUERIES.iter().enumerate() {
             for threads in [1usize, 2] {
-                let p = if threads == 1 { pool1 } else { pool2 };
+                let run = QueryRun {
+                    opts,
+                    pool: if threads == 1 { pool1 } else { pool2 },
+                    tracers: &tracers,
+                    rays,
+                    coherent,
+                    threads,
+                };
                 let (ms, paired) = if qi == 0 {
                     let q = (Hit::MISS, closest_query as Query<Hit>);
-                    time_query(
-                        opts,
-                        log,
-                        p,
-                        &tracers,
-                        rays,
-                        coherent,
-                        q,
-                        threads,
-                        &mut closest,
-                        &mut thread_diff,
-                    )
+                    time_query(&run, log, q, &mut closest, &mut thread_diff)
                 } else {
                     let q = (false, occluded_query as Query<bool>);
-                    time_query(
-                        opts,
-                        log,
-                        p,
-                        &tracers,
-                        rays,
-                        coherent,
-                        q,
-                        threads,
-                        &mut any,
-                        &mut thread_diff,
-                    )
+                    time_query(&run, log, q, &mut any, &mut thread_diff)
                 };
                 for ((backend, _), m) in tracers.iter().zip(ms) {
                     log.say(format!(
