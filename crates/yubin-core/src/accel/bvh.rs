@@ -613,17 +613,11 @@ impl Bvh {
         std::mem::take(&mut self.prims)
     }
 
-    /// The primitive at leaf position `i` (see the `prims` field).
-    #[inline]
-    fn prim_at(&self, i: usize) -> u32 {
-        self.prims.get(i).copied().unwrap_or(i as u32)
-    }
-
     /// Like [`Bvh::take_leaf_order`], but every leaf starts at a multiple
     /// of four positions (a leaf holds at most four primitives): slot `i`
     /// of the result is the primitive at position `i`, `None` for padding.
-    /// Callers then store each leaf as one aligned 4-wide packet. Once
-    /// only, and not after [`Bvh::take_leaf_order`].
+    /// Callers then store each leaf as one aligned 4-wide packet (after
+    /// [`Bvh::take_leaf_order`], positions stand for the primitives).
     pub fn take_leaf_order_packed(&mut self) -> Vec<Option<u32>> {
         let order = std::mem::take(&mut self.prims);
         let mut slots: Vec<Option<u32>> = Vec::with_capacity(order.len() * 2);
@@ -634,7 +628,7 @@ impl Bvh {
             let start = (code & START_MASK) as usize;
             let count = ((code >> 29) & 3) as usize + 1;
             let new_start = slots.len();
-            slots.extend((start..start + count).map(|i| order.get(i).copied()));
+            slots.extend((start..start + count).map(|i| Some(prim_at(&order, i))));
             slots.resize(new_start + 4, None);
             leaf_code(new_start, count)
         };
@@ -720,7 +714,7 @@ impl Bvh {
         self.closest_leaves(ray, &no_prefetch, |start, count, r| {
             let mut r = *r;
             let mut best = None;
-            for p in (start..start + count).map(|i| self.prim_at(i)) {
+            for p in (start..start + count).map(|i| prim_at(&self.prims, i)) {
                 if let Some(t) = hit(p, &r) {
                     r.t_max = t;
                     best = Some(t);
@@ -834,7 +828,7 @@ impl Bvh {
     pub fn any(&self, ray: &Ray, mut hit: impl FnMut(u32, &Ray) -> bool) -> bool {
         let no_prefetch = |_| {};
         self.any_leaves(ray, &no_prefetch, |start, count, r| {
-            (start..start + count).any(|i| hit(self.prim_at(i), r))
+            (start..start + count).any(|i| hit(prim_at(&self.prims, i), r))
         })
     }
 
@@ -908,6 +902,13 @@ impl Bvh {
             safe_arch::prefetch_t0(&node.planes[5]);
         }
     }
+}
+
+/// The primitive at leaf position `i` of `prims`, a leaf order that is
+/// empty once handed over (position `i` is then primitive `i`).
+#[inline]
+fn prim_at(prims: &[u32], i: usize) -> u32 {
+    prims.get(i).copied().unwrap_or(i as u32)
 }
 
 /// Pops entries until one starts before `t_max`; returns its child code.
