@@ -62,9 +62,11 @@ struct Node {
     /// planes: the child to visit is read right after the box test, and
     /// on a line of its own that read would wait for memory a second time.
     child: [u32; WIDTH],
-    /// The eight children's lower bounds (x, y, z), then their upper
-    /// bounds: one array, so that a ray picks its near and far planes by
-    /// index (see [`RayLanes`]) instead of by a per-node choice.
+    /// The eight children's lower and upper x bounds, then y, then z: one
+    /// array, so that a ray picks its near and far planes by index (see
+    /// [`RayLanes`]) instead of by a per-node choice; pairing an axis's
+    /// two planes makes the far index the near one with its low bit
+    /// flipped.
     planes: [f32x8; 6],
 }
 
@@ -73,10 +75,10 @@ impl Node {
         child: [EMPTY; WIDTH],
         planes: [
             f32x8::new([f32::INFINITY; WIDTH]),
-            f32x8::new([f32::INFINITY; WIDTH]),
+            f32x8::new([f32::NEG_INFINITY; WIDTH]),
             f32x8::new([f32::INFINITY; WIDTH]),
             f32x8::new([f32::NEG_INFINITY; WIDTH]),
-            f32x8::new([f32::NEG_INFINITY; WIDTH]),
+            f32x8::new([f32::INFINITY; WIDTH]),
             f32x8::new([f32::NEG_INFINITY; WIDTH]),
         ],
     };
@@ -85,8 +87,8 @@ impl Node {
     fn child_box(&self, slot: usize) -> Bounds3 {
         let p = self.planes.map(|v| v.to_array()[slot]);
         Bounds3 {
-            min: glam::Vec3::new(p[0], p[1], p[2]),
-            max: glam::Vec3::new(p[3], p[4], p[5]),
+            min: glam::Vec3::new(p[0], p[2], p[4]),
+            max: glam::Vec3::new(p[1], p[3], p[5]),
         }
     }
 
@@ -102,8 +104,8 @@ impl Node {
         }
         let mut node = Self::EMPTY;
         for a in 0..3 {
-            node.planes[a] = f32x8::new(min[a]);
-            node.planes[a + 3] = f32x8::new(max[a]);
+            node.planes[2 * a] = f32x8::new(min[a]);
+            node.planes[2 * a + 1] = f32x8::new(max[a]);
         }
         node
     }
@@ -511,15 +513,15 @@ impl RayLanes {
         let splat = |v: Vec3A| v.to_array().map(f32x8::splat);
         // From the reciprocal, not the direction: -0.0 has a negative
         // reciprocal but does not compare below zero.
-        let neg = inv.cmplt(Vec3A::ZERO).bitmask();
-        let upper = |a: usize| (neg >> a) & 1 == 1;
+        let neg = inv.cmplt(Vec3A::ZERO).bitmask() as usize;
+        let near = std::array::from_fn(|a| 2 * a + ((neg >> a) & 1));
         Self {
             inv_d: splat(inv),
             near_offset: splat(-c - slack),
             far_inv_d: splat(inv * grow),
             far_offset: splat(far_offset),
-            near: std::array::from_fn(|a| if upper(a) { a + 3 } else { a }),
-            far: std::array::from_fn(|a| if upper(a) { a } else { a + 3 }),
+            near,
+            far: near.map(|n| n ^ 1),
         }
     }
 

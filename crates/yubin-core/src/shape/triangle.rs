@@ -110,16 +110,38 @@ impl TrianglePackets {
     }
 }
 
-/// A ray prepared for watertight triangle tests.
+/// A ray prepared for watertight triangle tests. The per-ray values are
+/// kept as four lanes each, so that every leaf reads them as they are
+/// instead of broadcasting them again.
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
     /// Origin, in the permuted axis order `k`.
-    o: [f32; 3],
-    /// Axis permutation: the ray's dominant axis last.
-    k: [usize; 3],
+    o: [f32x4; 3],
     /// Shear constants.
-    s: [f32; 3],
-    t_min: f32,
+    s: [f32x4; 3],
+    t_min: f32x4,
+    /// Axis permutation: the ray's dominant axis last.
+    k: [Axis; 3],
+}
+
+/// A coordinate axis. An index of this type is below 3 by construction,
+/// so indexing a three-element array with it needs no bounds check.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    const ALL: [Self; 3] = [Self::X, Self::Y, Self::Z];
+
+    /// The axis after this one, cyclically.
+    #[inline(always)]
+    fn next(self) -> Self {
+        Self::ALL[(self as usize + 1) % 3]
+    }
 }
 
 impl WatertightRay {
@@ -133,18 +155,18 @@ impl WatertightRay {
         // The dominant axis, without branches (rays are incoherent, so
         // branches on their direction mispredict).
         let kz = ((a.y > a.x && a.y >= a.z) as usize) + 2 * ((a.z > a.x && a.z > a.y) as usize);
-        let kz = kz.min(2);
-        let (next, after) = ([1, 2, 0][kz], [2, 0, 1][kz]);
+        let kz = Axis::ALL[kz.min(2)];
+        let (next, after) = (kz.next(), kz.next().next());
         // Keep the winding: swap when the dominant component is negative.
-        let flip = d[kz] < 0.0;
+        let flip = d[kz as usize] < 0.0;
         let (kx, ky) = if flip { (after, next) } else { (next, after) };
-        let sz = 1.0 / d[kz];
+        let sz = 1.0 / d[kz as usize];
         let o = ray.o.to_array();
         Self {
-            o: [o[kx], o[ky], o[kz]],
+            o: [kx, ky, kz].map(|k| f32x4::splat(o[k as usize])),
+            s: [d[kx as usize] * sz, d[ky as usize] * sz, sz].map(f32x4::splat),
+            t_min: f32x4::splat(ray.t_min),
             k: [kx, ky, kz],
-            s: [d[kx] * sz, d[ky] * sz, sz],
-            t_min: ray.t_min,
         }
     }
 
@@ -152,17 +174,15 @@ impl WatertightRay {
     /// distance and the barycentrics of vertices 1 and 2.
     #[inline]
     pub fn intersect(&self, v: &[Vec3; 3], t_max: f32) -> Option<PrimHit> {
-        let [kx, ky, kz] = self.k.map(|k| k.min(2));
-        let [sx, sy, sz] = self.s;
+        let [kx, ky, kz] = self.k.map(|k| k as usize);
+        let lane = |v: [f32x4; 3]| v.map(|l| l.to_array()[0]);
+        let ([ox, oy, oz], [sx, sy, sz]) = (lane(self.o), lane(self.s));
+        let t_min = self.t_min.to_array()[0];
         // Vertex `i`, translated to the ray origin and sheared: (x, y, z).
         let vertex = |i: usize| {
             let p = v[i].to_array();
-            let z = p[kz] - self.o[2];
-            (
-                p[kx] - self.o[0] - sx * z,
-                p[ky] - self.o[1] - sy * z,
-                sz * z,
-            )
+            let z = p[kz] - oz;
+            (p[kx] - ox - sx * z, p[ky] - oy - sy * z, sz * z)
         };
         let (ax, ay, az) = vertex(0);
         let (bx, by, bz) = vertex(1);
@@ -188,7 +208,7 @@ impl WatertightRay {
         let t_scaled = u * az + v_ * bz + w * cz;
         let inv_det = 1.0 / det;
         let t = t_scaled * inv_det;
-        (t > self.t_min && t < t_max).then(|| PrimHit {
+        (t > t_min && t < t_max).then(|| PrimHit {
             t,
             uv: Vec2::new(v_ * inv_det, w * inv_det),
         })
@@ -210,10 +230,8 @@ impl WatertightRay {
     ) -> Option<(usize, PrimHit)> {
         debug_assert!(start.is_multiple_of(4) && count <= 4);
         let packet = &p.packets[start / 4].v;
-        // min(2): the axes are below 3, and saying so spares bounds checks.
-        let [kx, ky, kz] = self.k.map(|k| k.min(2));
-        let [ox, oy, oz] = self.o.map(f32x4::splat);
-        let [sx, sy, sz] = self.s.map(f32x4::splat);
+        let [kx, ky, kz] = self.k.map(|k| k as usize);
+        let ([ox, oy, oz], [sx, sy, sz]) = (self.o, self.s);
         // Vertex `v`, translated to the ray origin and sheared.
         let vertex = |v: usize| {
             let z = packet[v][kz] - oz;
@@ -251,7 +269,7 @@ impl WatertightRay {
         let sign = det & f32x4::splat(-0.0);
         let (t_signed, det_abs) = (t_scaled ^ sign, det.abs());
         let in_range = bits(
-            t_signed.cmp_gt(f32x4::splat(self.t_min) * det_abs)
+            t_signed.cmp_gt(self.t_min * det_abs)
                 & t_signed.cmp_lt(f32x4::splat(t_max) * det_abs),
         );
         let mut hit = lanes & !exact & !mixed & !bits(det.cmp_eq(zero)) & in_range;
@@ -269,7 +287,7 @@ impl WatertightRay {
             let t = t_scaled[lane] * inv;
             // The division may round onto the range's ends.
             let limit = best.map_or(t_max, |(_, b)| b.t);
-            if t > self.t_min && t < limit {
+            if t > self.t_min.to_array()[0] && t < limit {
                 best = Some((
                     lane,
                     PrimHit {
