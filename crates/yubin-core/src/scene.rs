@@ -18,6 +18,9 @@ use crate::light::{AreaLight, Emitter, EmitterContext};
 use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
+
+// A leaf is tested as one triangle packet.
+const _: () = assert!(crate::accel::MAX_LEAF == crate::shape::PACKET);
 use crate::Rgb;
 use rayon::prelude::*;
 
@@ -208,10 +211,10 @@ impl Scene {
         let prefetch = |start| g.tris.prefetch(start);
         g.bvh.closest_leaves(ray, &prefetch, |start, count, r| {
             let mut best = None;
-            // The leaf's triangles, four at a time; other items are NaN lanes.
+            // The leaf's triangles, all at once; other items are NaN lanes.
             if g.packet_has_triangles(start) {
                 let wr = shear.get_or_insert_with(|| WatertightRay::new(r));
-                if let Some((lane, hit)) = wr.intersect4(&g.tris, start, count, r.t_max) {
+                if let Some((lane, hit)) = wr.intersect_packet(&g.tris, start, count, r.t_max) {
                     closest = Some(Closest::Triangle(g.tris.id(start + lane), hit));
                     best = Some(hit.t);
                 }
@@ -294,7 +297,7 @@ impl Scene {
             if g.packet_has_triangles(start)
                 && shear
                     .get_or_insert_with(|| WatertightRay::new(r))
-                    .intersect4(&g.tris, start, count, r.t_max)
+                    .intersect_packet(&g.tris, start, count, r.t_max)
                     .is_some()
             {
                 return true;
@@ -683,7 +686,7 @@ impl SceneBuilder {
                 })
                 .collect();
             // SAH costs relative to a node visit: a triangle rides in a
-            // 4-wide packet; analytic shapes and instances cost more.
+            // packet; analytic shapes and instances cost more.
             let items = &groups[gi].items;
             let mut bvh = Bvh::build_with_costs(&bounds, |i| match items[i] {
                 Item::Triangle { .. } | Item::Empty => PrimCost::Packed,

@@ -21,13 +21,15 @@ use wide::{f32x4, f32x8, CmpLe};
 const WIDTH: usize = 8;
 
 const BINS: usize = 16;
-const MAX_LEAF: usize = 4;
+/// Primitives per leaf at most: one packet of triangles (see
+/// [`Bvh::take_leaf_order_packed`]).
+pub const MAX_LEAF: usize = 8;
 /// Default cost of a primitive test relative to a node visit, for
 /// [`Bvh::build`]; [`Bvh::build_with_costs`] takes one per primitive.
 const INTERSECT_COST: f32 = 1.0;
-/// Cost of one 4-wide packet test relative to a node visit: a leaf of
-/// [`PrimCost::Packed`] primitives pays it once per started group of four
-/// (the block-aware SAH of Wald et al. 2014, "Embree: A Kernel Framework
+/// Cost of one packet test relative to a node visit: a leaf of
+/// [`PrimCost::Packed`] primitives pays it once per started group of
+/// [`MAX_LEAF`] (the block-aware SAH of Wald et al. 2014, "Embree: A Kernel Framework
 /// for Efficient CPU Ray Tracing", §4.2), so the build favours full
 /// packets.
 const PACKET_COST: f32 = 1.0;
@@ -46,11 +48,17 @@ const MAX_SAH_DEPTH: usize = 60;
 /// primitive in bits 0–28 (so at most 2²⁹ primitives).
 const EMPTY: u32 = u32::MAX;
 const LEAF_BIT: u32 = 1 << 31;
-const START_MASK: u32 = (1 << 29) - 1;
+const START_MASK: u32 = (1 << 28) - 1;
 
 #[inline]
 fn leaf_code(start: usize, count: usize) -> u32 {
-    LEAF_BIT | (((count - 1) as u32) << 29) | (start as u32 & START_MASK)
+    LEAF_BIT | (((count - 1) as u32) << 28) | (start as u32 & START_MASK)
+}
+
+/// First position and primitive count of a leaf's code.
+#[inline(always)]
+fn leaf_span(code: u32) -> (usize, usize) {
+    ((code & START_MASK) as usize, ((code >> 28) & 7) as usize + 1)
 }
 
 /// Aligned to a cache line: the 224 bytes then span four lines, never
@@ -156,8 +164,8 @@ pub struct BvhStats {
 /// What testing one primitive costs, for the SAH.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PrimCost {
-    /// Tested four at a time with others of its kind (a triangle in a
-    /// SIMD packet).
+    /// Tested [`MAX_LEAF`] at a time with others of its kind (a triangle
+    /// in a SIMD packet).
     Packed,
     /// Tested on its own, at this cost relative to a node visit.
     Alone(f32),
@@ -292,7 +300,7 @@ impl Load {
 
     #[inline]
     fn cost(self) -> f32 {
-        self.alone + self.packed.div_ceil(4) as f32 * PACKET_COST
+        self.alone + self.packed.div_ceil(MAX_LEAF as u32) as f32 * PACKET_COST
     }
 }
 
@@ -616,9 +624,9 @@ impl Bvh {
     }
 
     /// Like [`Bvh::take_leaf_order`], but every leaf starts at a multiple
-    /// of four positions (a leaf holds at most four primitives): slot `i`
-    /// of the result is the primitive at position `i`, `None` for padding.
-    /// Callers then store each leaf as one aligned 4-wide packet (after
+    /// of [`MAX_LEAF`] positions: slot `i` of the result is the primitive
+    /// at position `i`, `None` for padding. Callers then store each leaf
+    /// as one aligned packet of that many lanes (after
     /// [`Bvh::take_leaf_order`], positions stand for the primitives).
     pub fn take_leaf_order_packed(&mut self) -> Vec<Option<u32>> {
         let order = std::mem::take(&mut self.prims);
@@ -627,11 +635,10 @@ impl Bvh {
             if code == EMPTY || code & LEAF_BIT == 0 {
                 return code;
             }
-            let start = (code & START_MASK) as usize;
-            let count = ((code >> 29) & 3) as usize + 1;
+            let (start, count) = leaf_span(code);
             let new_start = slots.len();
             slots.extend((start..start + count).map(|i| Some(prim_at(&order, i))));
-            slots.resize(new_start + 4, None);
+            slots.resize(new_start + MAX_LEAF, None);
             leaf_code(new_start, count)
         };
         self.root = repack(self.root);
@@ -652,7 +659,7 @@ impl Bvh {
         let mut count = |code: u32| {
             if code != EMPTY && code & LEAF_BIT != 0 {
                 st.leaves += 1;
-                st.leaf_prims += ((code >> 29) & 3) as usize + 1;
+                st.leaf_prims += leaf_span(code).1;
             }
         };
         count(self.root);
@@ -809,8 +816,7 @@ impl Bvh {
                     None => break 'trace,
                 }
             }
-            let start = (code & START_MASK) as usize;
-            let count = ((code >> 29) & 3) as usize + 1;
+            let (start, count) = leaf_span(code);
             if let Some(t) = leaf(start, count, ray) {
                 ray.t_max = t;
                 found = true;
@@ -870,8 +876,7 @@ impl Bvh {
                     mask &= mask - 1;
                 }
             }
-            let start = (code & START_MASK) as usize;
-            let count = ((code >> 29) & 3) as usize + 1;
+            let (start, count) = leaf_span(code);
             if leaf(start, count, ray) {
                 return true;
             }
@@ -892,7 +897,7 @@ impl Bvh {
     #[inline(always)]
     fn prefetch(&self, code: u32, leaf: &impl Fn(usize)) {
         if code & LEAF_BIT != 0 {
-            leaf((code & START_MASK) as usize);
+            leaf(leaf_span(code).0);
             return;
         }
         #[cfg(target_arch = "x86_64")]

@@ -23,7 +23,7 @@ pub use disk::Disk;
 pub use mesh::{MeshShape, TriangleMesh};
 pub use rectangle::Rectangle;
 pub use sphere::Sphere;
-pub use triangle::{TrianglePackets, WatertightRay};
+pub use triangle::{TrianglePackets, WatertightRay, PACKET};
 
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};

@@ -12,13 +12,21 @@
 use super::PrimHit;
 use crate::math::Ray;
 use glam::{Vec2, Vec3};
-use wide::{f32x4, CmpEq, CmpGt, CmpLt};
+use wide::{f32x8, CmpEq, CmpGt, CmpLt};
 
-/// Triangles in packets of four, structure-of-arrays inside a packet
-/// (per vertex, per axis, four lanes), so that one 160-byte packet holds a
-/// whole BVH leaf — vertices and the caller's triangle ids — and loads as
-/// SIMD lanes. Entries that are not triangles hold NaN, which no ray can
-/// hit.
+/// Triangles per packet: a BVH leaf holds at most this many, and one ray
+/// tests them all at once (one AVX instruction per step; two SSE halves
+/// on baseline x86-64).
+pub const PACKET: usize = 8;
+
+/// One lane per triangle of a packet.
+type Lanes = f32x8;
+
+/// Triangles in packets of [`PACKET`], structure-of-arrays inside a packet
+/// (per vertex, per axis, one lane per triangle), so that one 320-byte
+/// packet holds a whole BVH leaf — vertices and the caller's triangle ids
+/// — and loads as SIMD lanes. Entries that are not triangles hold NaN,
+/// which no ray can hit.
 #[derive(Clone, Debug, Default)]
 pub struct TrianglePackets {
     packets: Vec<Packet>,
@@ -27,39 +35,41 @@ pub struct TrianglePackets {
     any: Vec<bool>,
 }
 
-/// Four triangles and their ids. The ids sit beside the vertices so that
-/// a hit needs no further memory access to say which triangle it was.
-/// Aligned to 32 bytes, so that the 160 bytes span at most three cache
-/// lines.
+/// [`PACKET`] triangles and their ids. The ids sit beside the vertices so
+/// that a hit needs no further memory access to say which triangle it
+/// was. Aligned to a cache line, so that the 320 bytes span five lines.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
+#[repr(C, align(64))]
 struct Packet {
-    v: [[f32x4; 3]; 3],
-    id: [u32; 4],
+    v: [[Lanes; 3]; 3],
+    id: [u32; PACKET],
 }
 
 impl TrianglePackets {
     /// Packs entries `0..len`, where `tri(i)` gives entry `i`'s vertices
-    /// and id, four to a packet; `None` marks an entry that is not a
+    /// and id, [`PACKET`] to a packet; `None` marks an entry that is not a
     /// triangle (or padding). In parallel, and straight from the caller's
     /// data: a million-triangle mesh has a quarter million packets, and an
     /// intermediate list of them would be 40 MB written and read again.
     pub fn new(len: usize, tri: impl Fn(usize) -> Option<([Vec3; 3], u32)> + Sync) -> Self {
         use rayon::prelude::*;
-        let (packets, any) = (0..len.div_ceil(4))
+        let (packets, any) = (0..len.div_ceil(PACKET))
             .into_par_iter()
             .map(|q| {
-                let quad: [Option<([Vec3; 3], u32)>; 4] =
-                    std::array::from_fn(|l| (4 * q + l < len).then(|| tri(4 * q + l)).flatten());
-                let has_triangle = quad.iter().any(Option::is_some);
-                let quad = quad.map(|t| t.unwrap_or(([Vec3::NAN; 3], 0)));
+                let entry = |l: usize| {
+                    let i = PACKET * q + l;
+                    (i < len).then(|| tri(i)).flatten()
+                };
+                let group: [Option<([Vec3; 3], u32)>; PACKET] = std::array::from_fn(entry);
+                let has_triangle = group.iter().any(Option::is_some);
+                let group = group.map(|t| t.unwrap_or(([Vec3::NAN; 3], 0)));
                 let packet = Packet {
                     v: std::array::from_fn(|v| {
                         std::array::from_fn(|axis| {
-                            f32x4::new(std::array::from_fn(|l| quad[l].0[v][axis]))
+                            Lanes::new(std::array::from_fn(|l| group[l].0[v][axis]))
                         })
                     }),
-                    id: std::array::from_fn(|l| quad[l].1),
+                    id: std::array::from_fn(|l| group[l].1),
                 };
                 (packet, has_triangle)
             })
@@ -72,10 +82,12 @@ impl TrianglePackets {
     #[inline(always)]
     pub fn prefetch(&self, start: usize) {
         #[cfg(target_arch = "x86_64")]
-        if let Some(p) = self.packets.get(start / 4) {
-            // Offsets 0, 64 and 128: one in each line the packet spans.
+        if let Some(p) = self.packets.get(start / PACKET) {
+            // Offsets 0, 64, 128, 192 and 256: one in each line.
             safe_arch::prefetch_t0(&p.v[0][0]);
+            safe_arch::prefetch_t0(&p.v[0][2]);
             safe_arch::prefetch_t0(&p.v[1][1]);
+            safe_arch::prefetch_t0(&p.v[2][0]);
             safe_arch::prefetch_t0(&p.v[2][2]);
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -90,36 +102,36 @@ impl TrianglePackets {
     /// The id given to [`TrianglePackets::new`] for entry `i`.
     #[inline]
     pub fn id(&self, i: usize) -> u32 {
-        self.packets[i / 4].id[i % 4]
+        self.packets[i / PACKET].id[i % PACKET]
     }
 
     /// Whether the packet holding position `start` has any triangle (a
     /// leaf of analytic shapes only has none, and needs no packet test).
     #[inline]
     pub fn has_triangles(&self, start: usize) -> bool {
-        self.any[start / 4]
+        self.any[start / PACKET]
     }
 
     /// The vertices of entry `i` (NaN for one that is not a triangle).
     #[inline]
     pub fn vertices(&self, i: usize) -> [Vec3; 3] {
-        let p = &self.packets[i / 4];
+        let p = &self.packets[i / PACKET];
         std::array::from_fn(|v| {
-            Vec3::from_array(std::array::from_fn(|axis| p.v[v][axis].to_array()[i % 4]))
+            Vec3::from_array(std::array::from_fn(|axis| p.v[v][axis].to_array()[i % PACKET]))
         })
     }
 }
 
 /// A ray prepared for watertight triangle tests. The per-ray values are
-/// kept as four lanes each, so that every leaf reads them as they are
+/// kept as packet lanes, so that every leaf reads them as they are
 /// instead of broadcasting them again.
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
     /// Origin, in the permuted axis order `k`.
-    o: [f32x4; 3],
+    o: [Lanes; 3],
     /// Shear constants.
-    s: [f32x4; 3],
-    t_min: f32x4,
+    s: [Lanes; 3],
+    t_min: Lanes,
     /// Axis permutation: the ray's dominant axis last.
     k: [Axis; 3],
 }
@@ -163,9 +175,9 @@ impl WatertightRay {
         let sz = 1.0 / d[kz as usize];
         let o = ray.o.to_array();
         Self {
-            o: [kx, ky, kz].map(|k| f32x4::splat(o[k as usize])),
-            s: [d[kx as usize] * sz, d[ky as usize] * sz, sz].map(f32x4::splat),
-            t_min: f32x4::splat(ray.t_min),
+            o: [kx, ky, kz].map(|k| Lanes::splat(o[k as usize])),
+            s: [d[kx as usize] * sz, d[ky as usize] * sz, sz].map(Lanes::splat),
+            t_min: Lanes::splat(ray.t_min),
             k: [kx, ky, kz],
         }
     }
@@ -175,7 +187,7 @@ impl WatertightRay {
     #[inline]
     pub fn intersect(&self, v: &[Vec3; 3], t_max: f32) -> Option<PrimHit> {
         let [kx, ky, kz] = self.k.map(|k| k as usize);
-        let lane = |v: [f32x4; 3]| v.map(|l| l.to_array()[0]);
+        let lane = |v: [Lanes; 3]| v.map(|l| l.to_array()[0]);
         let ([ox, oy, oz], [sx, sy, sz]) = (lane(self.o), lane(self.s));
         let t_min = self.t_min.to_array()[0];
         // Vertex `i`, translated to the ray origin and sheared: (x, y, z).
@@ -217,19 +229,19 @@ impl WatertightRay {
 
 impl WatertightRay {
     /// The nearest hit among the first `count` lanes of the packet that
-    /// holds entry `start` (a multiple of four), closer than `t_max`: the
-    /// lane and the hit. The same test as [`WatertightRay::intersect`], four
-    /// triangles at a time.
+    /// holds entry `start` (a multiple of [`PACKET`]), closer than `t_max`:
+    /// the lane and the hit. The same test as [`WatertightRay::intersect`],
+    /// a whole packet at a time.
     #[inline(always)]
-    pub fn intersect4(
+    pub fn intersect_packet(
         &self,
         p: &TrianglePackets,
         start: usize,
         count: usize,
         t_max: f32,
     ) -> Option<(usize, PrimHit)> {
-        debug_assert!(start.is_multiple_of(4) && count <= 4);
-        let packet = &p.packets[start / 4].v;
+        debug_assert!(start.is_multiple_of(PACKET) && count <= PACKET);
+        let packet = &p.packets[start / PACKET].v;
         let [kx, ky, kz] = self.k.map(|k| k as usize);
         let ([ox, oy, oz], [sx, sy, sz]) = (self.o, self.s);
         // Vertex `v`, translated to the ray origin and sheared.
@@ -247,9 +259,9 @@ impl WatertightRay {
         let u = cx * by - cy * bx;
         let v = ax * cy - ay * cx;
         let w = bx * ay - by * ax;
-        let zero = f32x4::ZERO;
+        let zero = Lanes::ZERO;
         let lanes = (1u32 << count) - 1;
-        let bits = |m: f32x4| m.move_mask() as u32;
+        let bits = |m: Lanes| m.move_mask() as u32;
         // An edge function that is not 0 in f32 has its exact sign (the
         // two products are rounded monotonically), so a lane with one
         // strictly negative and one strictly positive is a miss for sure.
@@ -266,11 +278,11 @@ impl WatertightRay {
         // scaled by |det| instead, so that only hit lanes pay a division
         // (Woop et al. 2013, listing 1).
         let t_scaled = u * az + v * bz + w * cz;
-        let sign = det & f32x4::splat(-0.0);
+        let sign = det & Lanes::splat(-0.0);
         let (t_signed, det_abs) = (t_scaled ^ sign, det.abs());
         let in_range = bits(
             t_signed.cmp_gt(self.t_min * det_abs)
-                & t_signed.cmp_lt(f32x4::splat(t_max) * det_abs),
+                & t_signed.cmp_lt(Lanes::splat(t_max) * det_abs),
         );
         let mut hit = lanes & !exact & !mixed & !bits(det.cmp_eq(zero)) & in_range;
         let (t_scaled, v, w, det) = (
@@ -414,7 +426,7 @@ mod tests {
     }
 
     #[test]
-    fn four_wide_test_agrees_with_the_scalar_one() {
+    fn packet_test_agrees_with_the_scalar_one() {
         let tris = octahedron_grid(6);
         let packets = TrianglePackets::new(tris.len(), |i| Some((tris[i], 0)));
         let mut rng = Pcg32::new(3, 4);
@@ -425,15 +437,16 @@ mod tests {
                 (crate::sampling::square_to_uniform_sphere(rng.next_2d()) * 0.6).with_z(0.0);
             let ray = Ray::new(o, (target - o).normalize());
             let wr = WatertightRay::new(&ray);
-            for start in (0..tris.len()).step_by(4) {
-                let count = (tris.len() - start).min(1 + start % 3);
+            // Every count from 1 to a full packet.
+            for start in (0..tris.len()).step_by(PACKET) {
+                let count = (tris.len() - start).min(1 + (start / PACKET) % PACKET);
                 let scalar = (start..start + count)
                     .filter_map(|i| {
                         wr.intersect(&tris[i], f32::INFINITY)
                             .map(|h| (i - start, h))
                     })
                     .min_by(|a, b| a.1.t.total_cmp(&b.1.t));
-                let simd = wr.intersect4(&packets, start, count, f32::INFINITY);
+                let simd = wr.intersect_packet(&packets, start, count, f32::INFINITY);
                 assert_eq!(scalar.map(|s| s.0), simd.map(|s| s.0));
                 if let (Some((_, a)), Some((_, b))) = (scalar, simd) {
                     assert!((a.t - b.t).abs() <= 1e-6 * a.t && (a.uv - b.uv).length() < 1e-5);
@@ -448,7 +461,7 @@ mod tests {
         let ray = Ray::new(c * 3.0, -c.normalize());
         assert_eq!(
             WatertightRay::new(&ray)
-                .intersect4(&mixed, 0, 3, f32::INFINITY)
+                .intersect_packet(&mixed, 0, 3, f32::INFINITY)
                 .map(|h| h.0),
             Some(1)
         );
