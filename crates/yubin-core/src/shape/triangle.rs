@@ -152,14 +152,17 @@ impl Axis {
     /// The axis after this one, cyclically.
     #[inline(always)]
     fn next(self) -> Self {
-        Self::ALL[(self as usize + 1) % 3]
+        match self {
+            Self::X => Self::Y,
+            Self::Y => Self::Z,
+            Self::Z => Self::X,
+        }
     }
 }
 
 impl WatertightRay {
     /// Precomputes the shear of `ray`. Always inlined: it runs once per
-    /// ray at its first leaf, and a call there would make traversal save
-    /// and restore all of its vector registers around it.
+    /// ray, before traversal, and its values then stay in registers.
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
         let d = ray.d.to_array();
