@@ -128,10 +128,10 @@ impl TrianglePackets {
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
     /// Origin, in the permuted axis order `k`.
-    o: [Lanes; 3],
+    o: [f32; 3],
     /// Shear constants.
-    s: [Lanes; 3],
-    t_min: Lanes,
+    s: [f32; 3],
+    t_min: f32,
     /// Axis permutation: the ray's dominant axis last.
     k: [Axis; 3],
 }
@@ -178,9 +178,9 @@ impl WatertightRay {
         let sz = 1.0 / d[kz as usize];
         let o = ray.o.to_array();
         Self {
-            o: [kx, ky, kz].map(|k| Lanes::splat(o[k as usize])),
-            s: [d[kx as usize] * sz, d[ky as usize] * sz, sz].map(Lanes::splat),
-            t_min: Lanes::splat(ray.t_min),
+            o: [kx, ky, kz].map(|k| o[k as usize]),
+            s: [d[kx as usize] * sz, d[ky as usize] * sz, sz],
+            t_min: ray.t_min,
             k: [kx, ky, kz],
         }
     }
@@ -190,9 +190,7 @@ impl WatertightRay {
     #[inline]
     pub fn intersect(&self, v: &[Vec3; 3], t_max: f32) -> Option<PrimHit> {
         let [kx, ky, kz] = self.k.map(|k| k as usize);
-        let lane = |v: [Lanes; 3]| v.map(|l| l.to_array()[0]);
-        let ([ox, oy, oz], [sx, sy, sz]) = (lane(self.o), lane(self.s));
-        let t_min = self.t_min.to_array()[0];
+        let ([ox, oy, oz], [sx, sy, sz], t_min) = (self.o, self.s, self.t_min);
         // Vertex `i`, translated to the ray origin and sheared: (x, y, z).
         let vertex = |i: usize| {
             let p = v[i].to_array();
@@ -246,7 +244,8 @@ impl WatertightRay {
         debug_assert!(start.is_multiple_of(PACKET) && count <= PACKET);
         let packet = &p.packets[start / PACKET].v;
         let [kx, ky, kz] = self.k.map(|k| k as usize);
-        let ([ox, oy, oz], [sx, sy, sz]) = (self.o, self.s);
+        let [ox, oy, oz] = self.o.map(Lanes::splat);
+        let [sx, sy, sz] = self.s.map(Lanes::splat);
         // Vertex `v`, translated to the ray origin and sheared.
         let vertex = |v: usize| {
             let z = packet[v][kz] - oz;
@@ -284,7 +283,7 @@ impl WatertightRay {
         let sign = det & Lanes::splat(-0.0);
         let (t_signed, det_abs) = (t_scaled ^ sign, det.abs());
         let in_range = bits(
-            t_signed.cmp_gt(self.t_min * det_abs)
+            t_signed.cmp_gt(Lanes::splat(self.t_min) * det_abs)
                 & t_signed.cmp_lt(Lanes::splat(t_max) * det_abs),
         );
         let mut hit = lanes & !exact & !mixed & !bits(det.cmp_eq(zero)) & in_range;
@@ -302,7 +301,7 @@ impl WatertightRay {
             let t = t_scaled[lane] * inv;
             // The division may round onto the range's ends.
             let limit = best.map_or(t_max, |(_, b)| b.t);
-            if t > self.t_min.to_array()[0] && t < limit {
+            if t > self.t_min && t < limit {
                 best = Some((
                     lane,
                     PrimHit {
