@@ -24,6 +24,11 @@ const BINS: usize = 16;
 /// Primitives per leaf at most: one packet of triangles (see
 /// [`Bvh::take_leaf_order_packed`]).
 pub const MAX_LEAF: usize = 8;
+/// Primitives per leaf at most when one of them is tested on its own
+/// ([`PrimCost::Alone`]): such tests cost more than the SAH's estimate
+/// when several large shapes overlap (the walls of a room), and a leaf of
+/// eight of them measured slower than two leaves of four.
+const MAX_LEAF_ALONE: usize = 4;
 /// Default cost of a primitive test relative to a node visit, for
 /// [`Bvh::build`]; [`Bvh::build_with_costs`] takes one per primitive.
 const INTERSECT_COST: f32 = 1.0;
@@ -58,7 +63,10 @@ fn leaf_code(start: usize, count: usize) -> u32 {
 /// First position and primitive count of a leaf's code.
 #[inline(always)]
 fn leaf_span(code: u32) -> (usize, usize) {
-    ((code & START_MASK) as usize, ((code >> 28) & 7) as usize + 1)
+    (
+        (code & START_MASK) as usize,
+        ((code >> 28) & 7) as usize + 1,
+    )
 }
 
 /// Aligned to a cache line: the 224 bytes then span four lines, never
@@ -1199,7 +1207,7 @@ fn choose_split(
         .iter()
         .fold(Load::default(), |l, b| l.union(b.load))
         .cost();
-    if prims.len() <= MAX_LEAF && split_cost >= leaf_cost {
+    if fits_in_leaf(prims) && split_cost >= leaf_cost {
         return None;
     }
     let (mid, left, right) = partition(prims, &|p| binning.below(p.centroid2(), axis, split));
@@ -1209,8 +1217,14 @@ fn choose_split(
     Some((mid, left, right))
 }
 
+/// Whether one leaf may hold all of these primitives.
+fn fits_in_leaf(prims: &[BuildPrim]) -> bool {
+    let packed = |p: &BuildPrim| p.cost() == PrimCost::Packed;
+    prims.len() <= MAX_LEAF_ALONE || (prims.len() <= MAX_LEAF && prims.iter().all(packed))
+}
+
 fn split_in_middle(prims: &mut [BuildPrim], axis: usize) -> Option<(usize, Extent, Extent)> {
-    if prims.len() <= MAX_LEAF {
+    if fits_in_leaf(prims) {
         return None;
     }
     let mid = prims.len() / 2;

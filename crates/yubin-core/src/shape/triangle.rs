@@ -117,7 +117,9 @@ impl TrianglePackets {
     pub fn vertices(&self, i: usize) -> [Vec3; 3] {
         let p = &self.packets[i / PACKET];
         std::array::from_fn(|v| {
-            Vec3::from_array(std::array::from_fn(|axis| p.v[v][axis].to_array()[i % PACKET]))
+            Vec3::from_array(std::array::from_fn(|axis| {
+                p.v[v][axis].to_array()[i % PACKET]
+            }))
         })
     }
 }
