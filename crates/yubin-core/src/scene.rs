@@ -455,6 +455,12 @@ pub enum BuildError {
     },
     /// Emitting shapes inside shape groups are not supported.
     EmitterInGroup,
+    /// A shape group (or the scene's top level) with more primitives than
+    /// one BVH can address.
+    TooManyPrimitives {
+        /// Primitives in the group.
+        count: usize,
+    },
 }
 
 impl std::fmt::Display for BuildError {
@@ -464,6 +470,12 @@ impl std::fmt::Display for BuildError {
             BuildError::EmitterInGroup => {
                 write!(f, "shapes inside a shapegroup cannot be emitters")
             }
+            BuildError::TooManyPrimitives { count } => write!(
+                f,
+                "{count} primitives in one group are more than one BVH can hold \
+                 (at most {} leaf positions); split the geometry into shape groups",
+                crate::accel::MAX_POSITIONS
+            ),
         }
     }
 }
@@ -675,6 +687,10 @@ impl SceneBuilder {
             })
             .collect();
         for gi in (1..groups.len()).chain(std::iter::once(0)) {
+            let count = groups[gi].items.len();
+            if count > crate::accel::MAX_POSITIONS {
+                return Err(BuildError::TooManyPrimitives { count });
+            }
             let bounds: Vec<Bounds3> = groups[gi]
                 .items
                 .par_iter()
@@ -702,7 +718,10 @@ impl SceneBuilder {
                 Item::Instance(_) => PrimCost::Alone(4.0),
             });
             let g = &mut groups[gi];
-            let order = bvh.take_leaf_order_packed();
+            let too_many = || BuildError::TooManyPrimitives {
+                count: g.items.len(),
+            };
+            let order = bvh.take_leaf_order_packed().ok_or_else(too_many)?;
             // Whether a group holds only triangles does not depend on the
             // order; such a group keeps no item list, so none is permuted.
             g.only_triangles = g

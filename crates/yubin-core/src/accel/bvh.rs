@@ -55,6 +55,11 @@ const EMPTY: u32 = u32::MAX;
 const LEAF_BIT: u32 = 1 << 31;
 const START_MASK: u32 = (1 << 28) - 1;
 
+/// Leaf positions one BVH can address: at most this many primitives, and
+/// a packed leaf order (see [`Bvh::take_leaf_order_packed`]) of at most
+/// this many slots.
+pub const MAX_POSITIONS: usize = START_MASK as usize + 1;
+
 #[inline]
 fn leaf_code(start: usize, count: usize) -> u32 {
     LEAF_BIT | (((count - 1) as u32) << 28) | (start as u32 & START_MASK)
@@ -636,7 +641,12 @@ impl Bvh {
     /// at position `i`, `None` for padding. Callers then store each leaf
     /// as one aligned packet of that many lanes (after
     /// [`Bvh::take_leaf_order`], positions stand for the primitives).
-    pub fn take_leaf_order_packed(&mut self) -> Vec<Option<u32>> {
+    /// `None`, leaving the BVH as it was, when the padded order would need
+    /// more than [`MAX_POSITIONS`] positions.
+    pub fn take_leaf_order_packed(&mut self) -> Option<Vec<Option<u32>>> {
+        if self.stats().leaves.saturating_mul(MAX_LEAF) > MAX_POSITIONS {
+            return None;
+        }
         let order = std::mem::take(&mut self.prims);
         let mut slots: Vec<Option<u32>> = Vec::with_capacity(order.len() * 2);
         let mut repack = |code: u32| {
@@ -655,7 +665,7 @@ impl Bvh {
                 *c = repack(*c);
             }
         }
-        slots
+        Some(slots)
     }
 
     /// Shape of the tree, for benchmarks and tuning.

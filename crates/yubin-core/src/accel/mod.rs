@@ -5,4 +5,4 @@
 
 mod bvh;
 
-pub use bvh::{Bvh, BvhStats, PrimCost, MAX_LEAF};
+pub use bvh::{Bvh, BvhStats, PrimCost, MAX_LEAF, MAX_POSITIONS};
