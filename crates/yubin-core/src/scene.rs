@@ -18,11 +18,11 @@ use crate::light::{AreaLight, Emitter, EmitterContext};
 use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
+use crate::Rgb;
+use rayon::prelude::*;
 
 // A leaf is tested as one triangle packet.
 const _: () = assert!(crate::accel::MAX_LEAF == crate::shape::PACKET);
-use crate::Rgb;
-use rayon::prelude::*;
 
 /// What a shape is made of and whether it emits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -718,10 +718,9 @@ impl SceneBuilder {
                 Item::Instance(_) => PrimCost::Alone(4.0),
             });
             let g = &mut groups[gi];
-            let too_many = || BuildError::TooManyPrimitives {
-                count: g.items.len(),
-            };
-            let order = bvh.take_leaf_order_packed().ok_or_else(too_many)?;
+            let order = bvh
+                .take_leaf_order_packed()
+                .ok_or(BuildError::TooManyPrimitives { count })?;
             // Whether a group holds only triangles does not depend on the
             // order; such a group keeps no item list, so none is permuted.
             g.only_triangles = g

@@ -49,8 +49,8 @@ const STACK: usize = 256;
 const MAX_SAH_DEPTH: usize = 60;
 
 /// Child slot encoding: `EMPTY`, an inner node index, or a leaf with
-/// `LEAF_BIT`, the primitive count − 1 in bits 29–30 and the first
-/// primitive in bits 0–28 (so at most 2²⁹ primitives).
+/// `LEAF_BIT`, the primitive count − 1 in bits 28–30 and the first
+/// position in bits 0–27 (so at most [`MAX_POSITIONS`] positions).
 const EMPTY: u32 = u32::MAX;
 const LEAF_BIT: u32 = 1 << 31;
 const START_MASK: u32 = (1 << 28) - 1;
@@ -63,6 +63,12 @@ pub const MAX_POSITIONS: usize = START_MASK as usize + 1;
 #[inline]
 fn leaf_code(start: usize, count: usize) -> u32 {
     LEAF_BIT | (((count - 1) as u32) << 28) | (start as u32 & START_MASK)
+}
+
+/// Whether a child code is a leaf (`EMPTY` has the leaf bit too).
+#[inline]
+fn is_leaf(code: u32) -> bool {
+    code != EMPTY && code & LEAF_BIT != 0
 }
 
 /// First position and primitive count of a leaf's code.
@@ -595,7 +601,7 @@ impl Bvh {
             prims.retain(|p| usable(&bounds[p.index() as usize]));
         }
         debug_assert!(
-            prims.len() <= START_MASK as usize,
+            prims.len() <= MAX_POSITIONS,
             "too many primitives for one BVH"
         );
         if prims.is_empty() {
@@ -644,13 +650,14 @@ impl Bvh {
     /// `None`, leaving the BVH as it was, when the padded order would need
     /// more than [`MAX_POSITIONS`] positions.
     pub fn take_leaf_order_packed(&mut self) -> Option<Vec<Option<u32>>> {
-        if self.stats().leaves.saturating_mul(MAX_LEAF) > MAX_POSITIONS {
+        let len = self.leaf_codes().count().saturating_mul(MAX_LEAF);
+        if len > MAX_POSITIONS {
             return None;
         }
         let order = std::mem::take(&mut self.prims);
-        let mut slots: Vec<Option<u32>> = Vec::with_capacity(order.len() * 2);
+        let mut slots: Vec<Option<u32>> = Vec::with_capacity(len);
         let mut repack = |code: u32| {
-            if code == EMPTY || code & LEAF_BIT == 0 {
+            if !is_leaf(code) {
                 return code;
             }
             let (start, count) = leaf_span(code);
@@ -668,21 +675,25 @@ impl Bvh {
         Some(slots)
     }
 
+    /// The codes of all leaves.
+    fn leaf_codes(&self) -> impl Iterator<Item = u32> + '_ {
+        let children = self.nodes.iter().flat_map(|n| n.child);
+        std::iter::once(self.root)
+            .chain(children)
+            .filter(|&c| is_leaf(c))
+    }
+
     /// Shape of the tree, for benchmarks and tuning.
     pub fn stats(&self) -> BvhStats {
         let mut st = BvhStats {
             nodes: self.nodes.len(),
             ..BvhStats::default()
         };
-        let mut count = |code: u32| {
-            if code != EMPTY && code & LEAF_BIT != 0 {
-                st.leaves += 1;
-                st.leaf_prims += leaf_span(code).1;
-            }
-        };
-        count(self.root);
+        for code in self.leaf_codes() {
+            st.leaves += 1;
+            st.leaf_prims += leaf_span(code).1;
+        }
         for n in &self.nodes {
-            n.child.iter().for_each(|&c| count(c));
             let used = n.child.iter().filter(|&&c| c != EMPTY).count();
             st.child_slots += used;
             st.children_histogram[used] += 1;

@@ -49,8 +49,9 @@ impl TrianglePackets {
     /// Packs entries `0..len`, where `tri(i)` gives entry `i`'s vertices
     /// and id, [`PACKET`] to a packet; `None` marks an entry that is not a
     /// triangle (or padding). In parallel, and straight from the caller's
-    /// data: a million-triangle mesh has a quarter million packets, and an
-    /// intermediate list of them would be 40 MB written and read again.
+    /// data: a million-triangle mesh has an eighth of a million packets,
+    /// and an intermediate list of them would be 40 MB written and read
+    /// again.
     pub fn new(len: usize, tri: impl Fn(usize) -> Option<([Vec3; 3], u32)> + Sync) -> Self {
         use rayon::prelude::*;
         let (packets, any) = (0..len.div_ceil(PACKET))
@@ -124,9 +125,7 @@ impl TrianglePackets {
     }
 }
 
-/// A ray prepared for watertight triangle tests. The per-ray values are
-/// kept as packet lanes, so that every leaf reads them as they are
-/// instead of broadcasting them again.
+/// A ray prepared for watertight triangle tests.
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
     /// Origin, in the permuted axis order `k`.
@@ -138,8 +137,8 @@ pub struct WatertightRay {
     k: [Axis; 3],
 }
 
-/// A coordinate axis. An index of this type is below 3 by construction,
-/// so indexing a three-element array with it needs no bounds check.
+/// A coordinate axis: below 3 by construction, which lets the compiler
+/// drop bounds checks where it can see the value's range.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
 enum Axis {
