@@ -3,7 +3,8 @@
 //! Counting is off by default (one relaxed load per allocation) and is
 //! switched on only around acceleration-structure builds, so tracing runs
 //! with the plain system allocator's cost. While on, it tracks the live
-//! byte count and its high-water mark across all threads.
+//! byte count and its high-water mark across all threads, heap and
+//! yubin's huge-page mappings together.
 #![allow(unsafe_code)] // implementing `GlobalAlloc` is unsafe by definition
 
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -22,9 +23,21 @@ fn count(delta: isize) {
     if ON.load(Ordering::Relaxed) {
         let now = LIVE.fetch_add(delta, Ordering::Relaxed) + delta;
         if delta > 0 {
-            PEAK.fetch_max(now, Ordering::Relaxed);
+            PEAK.fetch_max(now + mapped(), Ordering::Relaxed);
         }
     }
+}
+
+/// The BVH's huge-page arrays, which are mapped rather than allocated:
+/// counted with the heap, sampled at every allocation (they are made
+/// between allocations and kept, so the samples see them).
+fn mapped() -> isize {
+    yubin_core::accel::huge_array_bytes() as isize
+}
+
+/// Heap and mapped bytes now.
+fn live() -> isize {
+    LIVE.load(Ordering::SeqCst) + mapped()
 }
 
 // SAFETY: every call forwards to `System` with the caller's arguments, so
@@ -74,7 +87,7 @@ pub struct Counter {
 impl Counter {
     /// Starts counting (one counter at a time).
     pub fn start() -> Self {
-        let start = LIVE.load(Ordering::SeqCst);
+        let start = live();
         PEAK.store(start, Ordering::SeqCst);
         ON.store(true, Ordering::SeqCst);
         Self { start }
@@ -82,12 +95,12 @@ impl Counter {
 
     /// Net bytes allocated since the start (retained).
     pub fn retained(&self) -> isize {
-        LIVE.load(Ordering::SeqCst) - self.start
+        live() - self.start
     }
 
     /// Highest net byte count since the start.
     pub fn peak(&self) -> isize {
-        PEAK.load(Ordering::SeqCst) - self.start
+        PEAK.load(Ordering::SeqCst).max(live()) - self.start
     }
 }
 

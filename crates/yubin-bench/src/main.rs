@@ -26,7 +26,7 @@ const USAGE: &str = "usage:
   yubin-bench cornell [--spp N] [--scene PATH] [--skip-mitsuba]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
-                   [--min-passes N] [--out FILE.md]
+                   [--min-passes N] [--max-passes N] [--out FILE.md]
   environment: YUBIN_EMBREE_VERBOSE=2 prints Embree's BVH statistics,
                YUBIN_EMBREE_ISA=avx2 limits Embree's instruction set";
 

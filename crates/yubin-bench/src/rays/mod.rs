@@ -7,7 +7,7 @@
 //! cargo build --release -p yubin-bench --features embree
 //! ./target/release/yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
 //!     [--wait-quiet 0.05] [--width 1024] [--incoherent 4194304] [--build-reps 5]
-//!     [--min-passes 5] [--out FILE.md]
+//!     [--min-passes 5] [--max-passes 50] [--out FILE.md]
 //! ```
 //!
 //! The inputs and rules are those of `../shared/tools/raybench/README.md`,
@@ -32,7 +32,9 @@
 //!   of each backend, then at least `--min-passes` (default 5) timed passes
 //!   of each, alternating yubin and Embree so that both see the same slow
 //!   drifts of a shared virtual machine (more passes for short ones, up to
-//!   about 2 s per backend). The tables give the median pass; yubin/Embree
+//!   about 2 s per backend, and at most `--max-passes`; equal minimum and
+//!   maximum fix the count, so that instruction counts under callgrind
+//!   compare across builds). The tables give the median pass; yubin/Embree
 //!   is the median of the per-pass ratios. With `--wait-quiet X` (default
 //!   0.05) each measurement first waits until other processes use less
 //!   than X of the machine, and is repeated (up to 3 tries) if they used
@@ -169,6 +171,7 @@ struct Options {
     incoherent: usize,
     build_reps: usize,
     min_passes: usize,
+    max_passes: usize,
     dragon: PathBuf,
     out: Option<PathBuf>,
 }
@@ -186,6 +189,7 @@ fn parse(args: &[String]) -> Result<Options> {
         incoherent: 4_194_304,
         build_reps: 5,
         min_passes: 5,
+        max_passes: MAX_PASSES,
         dragon: Path::new(env!("CARGO_MANIFEST_DIR")).join("data/dragon_vrip.ply"),
         out: None,
     };
@@ -211,6 +215,7 @@ fn parse(args: &[String]) -> Result<Options> {
             "--incoherent" => o.incoherent = value()?.parse()?,
             "--build-reps" => o.build_reps = value()?.parse::<usize>()?.max(1),
             "--min-passes" => o.min_passes = value()?.parse::<usize>()?.max(1),
+            "--max-passes" => o.max_passes = value()?.parse::<usize>()?.max(1),
             "--dragon" => o.dragon = PathBuf::from(value()?),
             "--out" => o.out = Some(PathBuf::from(value()?)),
             other => bail!("unknown option {other}\n{}", crate::USAGE),
@@ -419,7 +424,7 @@ fn measure(
         let snap = quiet::CpuSnapshot::take();
         let warm: f64 = passes.iter_mut().map(|p| p().as_secs_f64()).sum();
         let count = ((PASS_BUDGET * passes.len() as f64 / warm.max(1e-4)).ceil() as usize)
-            .clamp(opts.min_passes, MAX_PASSES);
+            .clamp(opts.min_passes.min(opts.max_passes), opts.max_passes);
         let mut times = vec![Vec::with_capacity(count); passes.len()];
         for _ in 0..count {
             for (t, p) in times.iter_mut().zip(passes.iter_mut()) {

@@ -5,7 +5,8 @@
 //! Build time is the wall time of [`SceneBuilder::build`], which builds
 //! the BVH over the primitives' bounds. Memory is measured with the
 //! counting allocator: what `add_shape` (the scene's per-primitive item
-//! list) and `build` (the BVH) keep, beyond the input mesh.
+//! list) and `build` (the BVH, heap and huge-page mappings) keep, beyond
+//! the input mesh.
 
 use super::mesh::Mesh;
 use super::raygen::BenchRay;

@@ -11,8 +11,10 @@
 //! SSE halves on baseline x86-64, NEON on ARM, scalar
 //! elsewhere; no `unsafe`).
 
+use super::HugeArray;
 use crate::math::{Bounds3, Ray};
 use arrayvec::ArrayVec;
+use bytemuck::{Pod, Zeroable};
 use glam::{Vec3A, Vec4};
 use rayon::prelude::*;
 use wide::{f32x4, f32x8, CmpLe};
@@ -81,8 +83,8 @@ fn leaf_span(code: u32) -> (usize, usize) {
 }
 
 /// Aligned to a cache line: the 224 bytes then span four lines, never
-/// five.
-#[derive(Clone, Copy, Debug)]
+/// five. Plain data (`Pod`), so that it can live in a [`HugeArray`].
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
 #[repr(C, align(64))]
 struct Node {
     /// First, so that the child codes share a cache line with the first
@@ -95,11 +97,15 @@ struct Node {
     /// two planes makes the far index the near one with its low bit
     /// flipped.
     planes: [f32x8; 6],
+    /// The rest of the fourth line, unused (the alignment would leave it
+    /// as padding, which plain data may not have).
+    spare: [u32; WIDTH],
 }
 
 impl Node {
     const EMPTY: Self = Self {
         child: [EMPTY; WIDTH],
+        spare: [0; WIDTH],
         planes: [
             f32x8::new([f32::INFINITY; WIDTH]),
             f32x8::new([f32::NEG_INFINITY; WIDTH]),
@@ -142,7 +148,7 @@ impl Node {
 /// given to [`Bvh::build`].
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
-    nodes: Vec<Node>,
+    nodes: HugeArray<Node>,
     /// The primitive at each leaf position, until [`Bvh::take_leaf_order`]
     /// hands it over; then empty, and position `i` is primitive `i` (an
     /// identity list would be 4 bytes per primitive for nothing).
@@ -615,9 +621,8 @@ impl Bvh {
         let bounds = root.bounds();
         let mut nodes = Vec::new();
         let root = collapse(root, &mut nodes);
-        nodes.shrink_to_fit();
         Self {
-            nodes,
+            nodes: HugeArray::from_slice(&nodes),
             prims: prims.par_iter().map(BuildPrim::index).collect(),
             root,
             bounds,
@@ -667,17 +672,17 @@ impl Bvh {
             leaf_code(new_start, count)
         };
         self.root = repack(self.root);
-        for node in &mut self.nodes {
-            for c in &mut node.child {
+        self.nodes.modify(|nodes| {
+            for c in nodes.iter_mut().flat_map(|n| &mut n.child) {
                 *c = repack(*c);
             }
-        }
+        });
         Some(slots)
     }
 
     /// The codes of all leaves.
     fn leaf_codes(&self) -> impl Iterator<Item = u32> + '_ {
-        let children = self.nodes.iter().flat_map(|n| n.child);
+        let children = self.nodes.as_slice().iter().flat_map(|n| n.child);
         std::iter::once(self.root)
             .chain(children)
             .filter(|&c| is_leaf(c))
@@ -693,7 +698,7 @@ impl Bvh {
             st.leaves += 1;
             st.leaf_prims += leaf_span(code).1;
         }
-        for n in &self.nodes {
+        for n in self.nodes.as_slice() {
             let used = n.child.iter().filter(|&&c| c != EMPTY).count();
             st.child_slots += used;
             st.children_histogram[used] += 1;
@@ -704,7 +709,7 @@ impl Bvh {
             let mut todo = vec![(self.root, 1)];
             let mut weighted = (0.0, 0.0);
             while let Some((code, depth)) = todo.pop() {
-                let n = &self.nodes[code as usize];
+                let n = &self.nodes.as_slice()[code as usize];
                 st.depth = st.depth.max(depth);
                 for (slot, &c) in n.child.iter().enumerate().filter(|(_, &c)| c != EMPTY) {
                     if c & LEAF_BIT == 0 {
@@ -722,7 +727,7 @@ impl Bvh {
             let root_is_leaf = self.root & LEAF_BIT != 0;
             st.node_sah = if root_is_leaf { 0.0 } else { 1.0 };
             st.leaf_sah = if root_is_leaf { 1.0 } else { 0.0 };
-            for n in &self.nodes {
+            for n in self.nodes.as_slice() {
                 for (slot, &c) in n.child.iter().enumerate().filter(|(_, &c)| c != EMPTY) {
                     let area = f64::from(n.child_box(slot).surface_area()) / root_area;
                     if c & LEAF_BIT != 0 {
@@ -738,7 +743,7 @@ impl Bvh {
 
     /// Memory held by the structure (nodes and primitive indices).
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node>() + self.prims.capacity() * 4
+        self.nodes.resident_bytes() + self.prims.capacity() * 4
     }
 
     /// Finds the closest hit. `hit` tests primitive `i` against the ray
@@ -784,13 +789,14 @@ impl Bvh {
             return false;
         }
         let lanes = RayLanes::new(ray);
+        let nodes = self.nodes.as_slice();
         // ArrayVec: a fixed-capacity stack that is not zeroed per ray.
         let mut stack: ArrayVec<(u32, f32), STACK> = ArrayVec::new();
         let mut found = false;
         let mut code = self.root;
         'trace: loop {
             while code & LEAF_BIT == 0 {
-                let node = &self.nodes[code as usize];
+                let node = &nodes[code as usize];
                 let (t_near, mut mask) = lanes.hit_children(node, ray.t_min, ray.t_max);
                 if mask == 0 {
                     match pop_within(&mut stack, ray.t_max) {
@@ -818,7 +824,7 @@ impl Bvh {
                 if mask == 0 {
                     // Depth is bounded (see MAX_SAH_DEPTH), so pushes never fail.
                     let _ = stack.try_push((node.child[far], t_near[far]));
-                    self.prefetch(node.child[far], prefetch);
+                    prefetch_child(nodes, node.child[far], prefetch);
                     code = node.child[near];
                     continue;
                 }
@@ -827,13 +833,13 @@ impl Bvh {
                 let base = stack.len();
                 let _ = stack.try_push((node.child[far], t_near[far]));
                 let _ = stack.try_push((node.child[near], t_near[near]));
-                self.prefetch(node.child[far], prefetch);
-                self.prefetch(node.child[near], prefetch);
+                prefetch_child(nodes, node.child[far], prefetch);
+                prefetch_child(nodes, node.child[near], prefetch);
                 while mask != 0 {
                     let slot = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     let _ = stack.try_push((node.child[slot], t_near[slot]));
-                    self.prefetch(node.child[slot], prefetch);
+                    prefetch_child(nodes, node.child[slot], prefetch);
                     let mut i = stack.len() - 1;
                     while i > base && stack[i - 1].1 < stack[i].1 {
                         stack.swap(i - 1, i);
@@ -881,11 +887,12 @@ impl Bvh {
             return false;
         }
         let lanes = RayLanes::new(ray);
+        let nodes = self.nodes.as_slice();
         let mut stack: ArrayVec<u32, STACK> = ArrayVec::new();
         let mut code = self.root;
         loop {
             while code & LEAF_BIT == 0 {
-                let node = &self.nodes[code as usize];
+                let node = &nodes[code as usize];
                 let (_, mut mask) = lanes.hit_children(node, ray.t_min, ray.t_max);
                 if mask == 0 {
                     match stack.pop() {
@@ -901,7 +908,7 @@ impl Bvh {
                 while mask != 0 {
                     let child = node.child[mask.trailing_zeros() as usize];
                     let _ = stack.try_push(child);
-                    self.prefetch(child, prefetch);
+                    prefetch_child(nodes, child, prefetch);
                     mask &= mask - 1;
                 }
             }
@@ -917,26 +924,24 @@ impl Bvh {
     }
 }
 
-impl Bvh {
-    /// Starts loading a child that traversal defers (a stack entry) into
-    /// the cache, so that its memory latency overlaps the work done
-    /// before it is popped: incoherent rays on a large mesh miss the cache
-    /// at nearly every node. A leaf goes to `leaf(start)`, which knows
-    /// where the caller keeps it. A hint only (a no-op off x86-64).
-    #[inline(always)]
-    fn prefetch(&self, code: u32, leaf: &impl Fn(usize)) {
-        if code & LEAF_BIT != 0 {
-            leaf(leaf_span(code).0);
-            return;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if let Some(node) = self.nodes.get(code as usize) {
-            // All four lines (child codes and planes 0, 1-2, 3-4, 5).
-            safe_arch::prefetch_t0(node);
-            safe_arch::prefetch_t0(&node.planes[1]);
-            safe_arch::prefetch_t0(&node.planes[3]);
-            safe_arch::prefetch_t0(&node.planes[5]);
-        }
+/// Starts loading a child that traversal defers (a stack entry) into
+/// the cache, so that its memory latency overlaps the work done
+/// before it is popped: incoherent rays on a large mesh miss the cache
+/// at nearly every node. A leaf goes to `leaf(start)`, which knows
+/// where the caller keeps it. A hint only (a no-op off x86-64).
+#[inline(always)]
+fn prefetch_child(nodes: &[Node], code: u32, leaf: &impl Fn(usize)) {
+    if code & LEAF_BIT != 0 {
+        leaf(leaf_span(code).0);
+        return;
+    }
+    #[cfg(target_arch = "x86_64")]
+    if let Some(node) = nodes.get(code as usize) {
+        // All four lines (child codes and planes 0, 1-2, 3-4, 5).
+        safe_arch::prefetch_t0(node);
+        safe_arch::prefetch_t0(&node.planes[1]);
+        safe_arch::prefetch_t0(&node.planes[3]);
+        safe_arch::prefetch_t0(&node.planes[5]);
     }
 }
 
@@ -1507,10 +1512,7 @@ mod tests {
             .map(|r| closest(&bvh, r, &|pos| order[pos as usize]))
             .collect();
         assert_eq!(before, after);
-        assert_eq!(
-            bvh.memory_bytes(),
-            bvh.nodes.capacity() * std::mem::size_of::<Node>()
-        );
+        assert_eq!(bvh.memory_bytes(), bvh.nodes.resident_bytes());
     }
 
     #[test]

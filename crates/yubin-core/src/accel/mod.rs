@@ -4,5 +4,7 @@
 //! structure can be replaced without touching shapes or integrators.
 
 mod bvh;
+mod huge_array;
 
 pub use bvh::{Bvh, BvhStats, PrimCost, MAX_LEAF, MAX_POSITIONS};
+pub use huge_array::{huge_array_bytes, HugeArray};

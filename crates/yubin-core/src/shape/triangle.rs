@@ -10,7 +10,9 @@
 //! fallback) so that the tie is real and not round-off.
 
 use super::PrimHit;
+use crate::accel::HugeArray;
 use crate::math::Ray;
+use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
 use wide::{f32x8, CmpEq, CmpGt, CmpLt};
 
@@ -26,10 +28,11 @@ type Lanes = f32x8;
 /// (per vertex, per axis, one lane per triangle), so that one 320-byte
 /// packet holds a whole BVH leaf — vertices and the caller's triangle ids
 /// — and loads as SIMD lanes. Entries that are not triangles hold NaN,
-/// which no ray can hit.
+/// which no ray can hit. The packets of a large mesh sit on huge pages
+/// (see [`HugeArray`]); traversal reads them through a [`PacketView`].
 #[derive(Clone, Debug, Default)]
 pub struct TrianglePackets {
-    packets: Vec<Packet>,
+    packets: HugeArray<Packet>,
     /// Per packet, whether any lane holds a triangle (so leaves of other
     /// primitives skip the test).
     any: Vec<bool>,
@@ -38,7 +41,7 @@ pub struct TrianglePackets {
 /// [`PACKET`] triangles and their ids. The ids sit beside the vertices so
 /// that a hit needs no further memory access to say which triangle it
 /// was. Aligned to a cache line, so that the 320 bytes span five lines.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
 #[repr(C, align(64))]
 struct Packet {
     v: [[Lanes; 3]; 3],
@@ -49,37 +52,75 @@ impl TrianglePackets {
     /// Packs entries `0..len`, where `tri(i)` gives entry `i`'s vertices
     /// and id, [`PACKET`] to a packet; `None` marks an entry that is not a
     /// triangle (or padding). In parallel, and straight from the caller's
-    /// data: a million-triangle mesh has an eighth of a million packets,
-    /// and an intermediate list of them would be 40 MB written and read
-    /// again.
+    /// data into place: a million-triangle mesh has an eighth of a million
+    /// packets, and an intermediate list of them would be 40 MB written
+    /// and read again.
     pub fn new(len: usize, tri: impl Fn(usize) -> Option<([Vec3; 3], u32)> + Sync) -> Self {
         use rayon::prelude::*;
-        let (packets, any) = (0..len.div_ceil(PACKET))
-            .into_par_iter()
-            .map(|q| {
-                let entry = |l: usize| {
-                    let i = PACKET * q + l;
-                    (i < len).then(|| tri(i)).flatten()
-                };
-                let group: [Option<([Vec3; 3], u32)>; PACKET] = std::array::from_fn(entry);
-                let has_triangle = group.iter().any(Option::is_some);
-                let group = group.map(|t| t.unwrap_or(([Vec3::NAN; 3], 0)));
-                let packet = Packet {
-                    v: std::array::from_fn(|v| {
-                        std::array::from_fn(|axis| {
-                            Lanes::new(std::array::from_fn(|l| group[l].0[v][axis]))
-                        })
-                    }),
-                    id: std::array::from_fn(|l| group[l].1),
-                };
-                (packet, has_triangle)
-            })
-            .unzip();
+        let mut any = Vec::new();
+        let packets = HugeArray::new(len.div_ceil(PACKET), |packets: &mut [Packet]| {
+            any = packets
+                .par_iter_mut()
+                .enumerate()
+                .map(|(q, packet)| {
+                    let entry = |l: usize| {
+                        let i = PACKET * q + l;
+                        (i < len).then(|| tri(i)).flatten()
+                    };
+                    let group: [Option<([Vec3; 3], u32)>; PACKET] = std::array::from_fn(entry);
+                    let has_triangle = group.iter().any(Option::is_some);
+                    let group = group.map(|t| t.unwrap_or(([Vec3::NAN; 3], 0)));
+                    *packet = Packet {
+                        v: std::array::from_fn(|v| {
+                            std::array::from_fn(|axis| {
+                                Lanes::new(std::array::from_fn(|l| group[l].0[v][axis]))
+                            })
+                        }),
+                        id: std::array::from_fn(|l| group[l].1),
+                    };
+                    has_triangle
+                })
+                .collect();
+        });
         Self { packets, any }
     }
 
+    /// The packets, for one traversal.
+    #[inline(always)]
+    pub fn view(&self) -> PacketView<'_> {
+        PacketView {
+            packets: self.packets.as_slice(),
+            any: &self.any,
+        }
+    }
+
+    /// Bytes held.
+    pub fn memory_bytes(&self) -> usize {
+        self.packets.resident_bytes() + self.any.capacity()
+    }
+
+    /// The id given to [`TrianglePackets::new`] for entry `i`.
+    pub fn id(&self, i: usize) -> u32 {
+        self.view().id(i)
+    }
+
+    /// The vertices of entry `i` (NaN for one that is not a triangle).
+    pub fn vertices(&self, i: usize) -> [Vec3; 3] {
+        self.view().vertices(i)
+    }
+}
+
+/// [`TrianglePackets`] seen as plain slices: what traversal reads, taken
+/// once per ray rather than at every leaf.
+#[derive(Clone, Copy, Debug)]
+pub struct PacketView<'a> {
+    packets: &'a [Packet],
+    any: &'a [bool],
+}
+
+impl PacketView<'_> {
     /// Asks the cache for the packet holding position `start` (see
-    /// `Bvh::prefetch`); a hint only.
+    /// `Bvh::closest_leaves`); a hint only.
     #[inline(always)]
     pub fn prefetch(&self, start: usize) {
         #[cfg(target_arch = "x86_64")]
@@ -93,11 +134,6 @@ impl TrianglePackets {
         }
         #[cfg(not(target_arch = "x86_64"))]
         let _ = start;
-    }
-
-    /// Bytes held.
-    pub fn memory_bytes(&self) -> usize {
-        self.packets.capacity() * std::mem::size_of::<Packet>() + self.any.capacity()
     }
 
     /// The id given to [`TrianglePackets::new`] for entry `i`.
@@ -237,7 +273,7 @@ impl WatertightRay {
     #[inline(always)]
     pub fn intersect_packet(
         &self,
-        p: &TrianglePackets,
+        p: &PacketView,
         start: usize,
         count: usize,
         t_max: f32,
@@ -325,7 +361,7 @@ impl WatertightRay {
     #[inline(never)]
     fn retest_exact_lanes(
         &self,
-        p: &TrianglePackets,
+        p: &PacketView,
         start: usize,
         mut exact: u32,
         t_max: f32,
@@ -449,7 +485,7 @@ mod tests {
                             .map(|h| (i - start, h))
                     })
                     .min_by(|a, b| a.1.t.total_cmp(&b.1.t));
-                let simd = wr.intersect_packet(&packets, start, count, f32::INFINITY);
+                let simd = wr.intersect_packet(&packets.view(), start, count, f32::INFINITY);
                 assert_eq!(scalar.map(|s| s.0), simd.map(|s| s.0));
                 if let (Some((_, a)), Some((_, b))) = (scalar, simd) {
                     assert!((a.t - b.t).abs() <= 1e-6 * a.t && (a.uv - b.uv).length() < 1e-5);
@@ -464,13 +500,13 @@ mod tests {
         let ray = Ray::new(c * 3.0, -c.normalize());
         assert_eq!(
             WatertightRay::new(&ray)
-                .intersect_packet(&mixed, 0, 3, f32::INFINITY)
+                .intersect_packet(&mixed.view(), 0, 3, f32::INFINITY)
                 .map(|h| h.0),
             Some(1)
         );
         assert_eq!(mixed.id(1), 7);
-        assert!(mixed.has_triangles(0));
-        assert!(!TrianglePackets::new(1, |_| None).has_triangles(0));
+        assert!(mixed.view().has_triangles(0));
+        assert!(!TrianglePackets::new(1, |_| None).view().has_triangles(0));
     }
 
     #[test]
