@@ -324,13 +324,17 @@ impl WatertightRay {
                 & t_signed.cmp_lt(Lanes::splat(t_max) * det_abs),
         );
         let mut hit = lanes & !exact & !mixed & !bits(det.cmp_eq(zero)) & in_range;
+        let mut best: Option<(usize, PrimHit)> = None;
+        if hit == 0 && exact == 0 {
+            // Most leaves: nothing to finish, and nothing to store.
+            return best;
+        }
         let (t_scaled, v, w, det) = (
             t_scaled.to_array(),
             v.to_array(),
             w.to_array(),
             det.to_array(),
         );
-        let mut best: Option<(usize, PrimHit)> = None;
         while hit != 0 {
             let lane = hit.trailing_zeros() as usize;
             hit &= hit - 1;
