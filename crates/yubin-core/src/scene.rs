@@ -76,6 +76,13 @@ struct TriangleRun {
 }
 
 impl Group {
+    /// Whether the leaf starting at `start` has triangles to test (only a
+    /// leaf of analytic shapes or instances has none).
+    #[inline]
+    fn packet_has_triangles(&self, start: usize) -> bool {
+        self.only_triangles || self.tris.has_triangles(start)
+    }
+
     /// Shape and primitive of the triangle with packet id `id`.
     fn triangle(&self, id: u32) -> (u32, u32) {
         triangle_of_id(&self.tri_runs, id)
@@ -209,15 +216,14 @@ impl Scene {
         // A triangle hit keeps only its packet id: its shape and primitive
         // are looked up once, after traversal.
         let mut closest = None;
-        let tris = g.tris.view();
-        let prefetch = |start| tris.prefetch(start);
+        let prefetch = |start| g.tris.prefetch(start);
         g.bvh.closest_leaves(ray, &prefetch, |start, count, r| {
             let mut best = None;
             // The leaf's triangles, all at once; other items are NaN lanes.
-            if g.only_triangles || tris.has_triangles(start) {
+            if g.packet_has_triangles(start) {
                 let wr = shear.get_or_insert_with(|| WatertightRay::new(r));
-                if let Some((lane, hit)) = wr.intersect_packet(&tris, start, count, r.t_max) {
-                    closest = Some(Closest::Triangle(tris.id(start + lane), hit));
+                if let Some((lane, hit)) = wr.intersect_packet(&g.tris, start, count, r.t_max) {
+                    closest = Some(Closest::Triangle(g.tris.id(start + lane), hit));
                     best = Some(hit.t);
                 }
             }
@@ -294,13 +300,12 @@ impl Scene {
     /// True when any item of the group blocks the ray.
     fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
         let mut shear = g.early_shear(ray);
-        let tris = g.tris.view();
-        let prefetch = |start| tris.prefetch(start);
+        let prefetch = |start| g.tris.prefetch(start);
         g.bvh.any_leaves(ray, &prefetch, |start, count, r| {
-            if (g.only_triangles || tris.has_triangles(start))
+            if g.packet_has_triangles(start)
                 && shear
                     .get_or_insert_with(|| WatertightRay::new(r))
-                    .intersect_packet(&tris, start, count, r.t_max)
+                    .intersect_packet(&g.tris, start, count, r.t_max)
                     .is_some()
             {
                 return true;

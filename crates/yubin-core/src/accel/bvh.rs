@@ -682,7 +682,7 @@ impl Bvh {
 
     /// The codes of all leaves.
     fn leaf_codes(&self) -> impl Iterator<Item = u32> + '_ {
-        let children = self.nodes.as_slice().iter().flat_map(|n| n.child);
+        let children = self.nodes.iter().flat_map(|n| n.child);
         std::iter::once(self.root)
             .chain(children)
             .filter(|&c| is_leaf(c))
@@ -698,7 +698,7 @@ impl Bvh {
             st.leaves += 1;
             st.leaf_prims += leaf_span(code).1;
         }
-        for n in self.nodes.as_slice() {
+        for n in self.nodes.iter() {
             let used = n.child.iter().filter(|&&c| c != EMPTY).count();
             st.child_slots += used;
             st.children_histogram[used] += 1;
@@ -709,7 +709,7 @@ impl Bvh {
             let mut todo = vec![(self.root, 1)];
             let mut weighted = (0.0, 0.0);
             while let Some((code, depth)) = todo.pop() {
-                let n = &self.nodes.as_slice()[code as usize];
+                let n = &self.nodes[code as usize];
                 st.depth = st.depth.max(depth);
                 for (slot, &c) in n.child.iter().enumerate().filter(|(_, &c)| c != EMPTY) {
                     if c & LEAF_BIT == 0 {
@@ -727,7 +727,7 @@ impl Bvh {
             let root_is_leaf = self.root & LEAF_BIT != 0;
             st.node_sah = if root_is_leaf { 0.0 } else { 1.0 };
             st.leaf_sah = if root_is_leaf { 1.0 } else { 0.0 };
-            for n in self.nodes.as_slice() {
+            for n in self.nodes.iter() {
                 for (slot, &c) in n.child.iter().enumerate().filter(|(_, &c)| c != EMPTY) {
                     let area = f64::from(n.child_box(slot).surface_area()) / root_area;
                     if c & LEAF_BIT != 0 {
@@ -789,14 +789,13 @@ impl Bvh {
             return false;
         }
         let lanes = RayLanes::new(ray);
-        let nodes = self.nodes.as_slice();
         // ArrayVec: a fixed-capacity stack that is not zeroed per ray.
         let mut stack: ArrayVec<(u32, f32), STACK> = ArrayVec::new();
         let mut found = false;
         let mut code = self.root;
         'trace: loop {
             while code & LEAF_BIT == 0 {
-                let node = &nodes[code as usize];
+                let node = &self.nodes[code as usize];
                 let (t_near, mut mask) = lanes.hit_children(node, ray.t_min, ray.t_max);
                 if mask == 0 {
                     match pop_within(&mut stack, ray.t_max) {
@@ -824,7 +823,7 @@ impl Bvh {
                 if mask == 0 {
                     // Depth is bounded (see MAX_SAH_DEPTH), so pushes never fail.
                     let _ = stack.try_push((node.child[far], t_near[far]));
-                    prefetch_child(nodes, node.child[far], prefetch);
+                    self.prefetch(node.child[far], prefetch);
                     code = node.child[near];
                     continue;
                 }
@@ -833,13 +832,13 @@ impl Bvh {
                 let base = stack.len();
                 let _ = stack.try_push((node.child[far], t_near[far]));
                 let _ = stack.try_push((node.child[near], t_near[near]));
-                prefetch_child(nodes, node.child[far], prefetch);
-                prefetch_child(nodes, node.child[near], prefetch);
+                self.prefetch(node.child[far], prefetch);
+                self.prefetch(node.child[near], prefetch);
                 while mask != 0 {
                     let slot = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     let _ = stack.try_push((node.child[slot], t_near[slot]));
-                    prefetch_child(nodes, node.child[slot], prefetch);
+                    self.prefetch(node.child[slot], prefetch);
                     let mut i = stack.len() - 1;
                     while i > base && stack[i - 1].1 < stack[i].1 {
                         stack.swap(i - 1, i);
@@ -887,12 +886,11 @@ impl Bvh {
             return false;
         }
         let lanes = RayLanes::new(ray);
-        let nodes = self.nodes.as_slice();
         let mut stack: ArrayVec<u32, STACK> = ArrayVec::new();
         let mut code = self.root;
         loop {
             while code & LEAF_BIT == 0 {
-                let node = &nodes[code as usize];
+                let node = &self.nodes[code as usize];
                 let (_, mut mask) = lanes.hit_children(node, ray.t_min, ray.t_max);
                 if mask == 0 {
                     match stack.pop() {
@@ -908,7 +906,7 @@ impl Bvh {
                 while mask != 0 {
                     let child = node.child[mask.trailing_zeros() as usize];
                     let _ = stack.try_push(child);
-                    prefetch_child(nodes, child, prefetch);
+                    self.prefetch(child, prefetch);
                     mask &= mask - 1;
                 }
             }
@@ -924,24 +922,26 @@ impl Bvh {
     }
 }
 
-/// Starts loading a child that traversal defers (a stack entry) into
-/// the cache, so that its memory latency overlaps the work done
-/// before it is popped: incoherent rays on a large mesh miss the cache
-/// at nearly every node. A leaf goes to `leaf(start)`, which knows
-/// where the caller keeps it. A hint only (a no-op off x86-64).
-#[inline(always)]
-fn prefetch_child(nodes: &[Node], code: u32, leaf: &impl Fn(usize)) {
-    if code & LEAF_BIT != 0 {
-        leaf(leaf_span(code).0);
-        return;
-    }
-    #[cfg(target_arch = "x86_64")]
-    if let Some(node) = nodes.get(code as usize) {
-        // All four lines (child codes and planes 0, 1-2, 3-4, 5).
-        safe_arch::prefetch_t0(node);
-        safe_arch::prefetch_t0(&node.planes[1]);
-        safe_arch::prefetch_t0(&node.planes[3]);
-        safe_arch::prefetch_t0(&node.planes[5]);
+impl Bvh {
+    /// Starts loading a child that traversal defers (a stack entry) into
+    /// the cache, so that its memory latency overlaps the work done
+    /// before it is popped: incoherent rays on a large mesh miss the cache
+    /// at nearly every node. A leaf goes to `leaf(start)`, which knows
+    /// where the caller keeps it. A hint only (a no-op off x86-64).
+    #[inline(always)]
+    fn prefetch(&self, code: u32, leaf: &impl Fn(usize)) {
+        if code & LEAF_BIT != 0 {
+            leaf(leaf_span(code).0);
+            return;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let Some(node) = self.nodes.get(code as usize) {
+            // All four lines (child codes and planes 0, 1-2, 3-4, 5).
+            safe_arch::prefetch_t0(node);
+            safe_arch::prefetch_t0(&node.planes[1]);
+            safe_arch::prefetch_t0(&node.planes[3]);
+            safe_arch::prefetch_t0(&node.planes[5]);
+        }
     }
 }
 

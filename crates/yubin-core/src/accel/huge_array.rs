@@ -41,10 +41,11 @@ pub fn huge_array_bytes() -> usize {
     LIVE_BYTES.load(Ordering::Relaxed)
 }
 
-/// `len` values of `T` in their own mapping. Arrays of at least
-/// [`ADVISE_FROM`] bytes are aligned to huge pages and advised to use them. Reading costs
-/// what reading a `Vec` costs: the values' slice is kept beside the
-/// mapping it borrows from (a [`Yoke`]), not re-derived at each access.
+/// `len` values of `T` in their own mapping, read as a slice. Arrays of
+/// at least [`ADVISE_FROM`] bytes are aligned to huge pages and advised to
+/// use them. Reading costs what reading a `Vec` costs: the values' slice
+/// is kept beside the mapping it borrows from (a [`Yoke`]), not re-derived
+/// at each access.
 pub struct HugeArray<T: 'static> {
     values: Yoke<&'static [T], Box<MmapMut>>,
     /// Where the values lie in the mapping, in bytes.
@@ -58,7 +59,7 @@ impl<T: Pod> HugeArray<T> {
         let bytes = len
             .checked_mul(std::mem::size_of::<T>())
             .unwrap_or_else(|| out_of_memory(usize::MAX));
-        let huge = bytes >= ADVISE_FROM;
+        let huge = advised(bytes);
         // Room to slide the start to a huge-page boundary: the slack is
         // address space only, never touched and so never resident.
         let map_len = if huge {
@@ -99,25 +100,18 @@ impl<T: Pod> HugeArray<T> {
 }
 
 impl<T> HugeArray<T> {
-    /// The values.
-    #[inline(always)]
-    pub fn as_slice(&self) -> &[T] {
-        self.values.get()
-    }
-
-    /// Number of values.
-    pub fn len(&self) -> usize {
-        self.as_slice().len()
-    }
-
-    /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     /// Memory the values occupy once written, in whole pages.
     pub fn resident_bytes(&self) -> usize {
-        resident(std::mem::size_of_val(self.as_slice()))
+        resident(std::mem::size_of_val(&**self))
+    }
+}
+
+impl<T> std::ops::Deref for HugeArray<T> {
+    type Target = [T];
+
+    #[inline(always)]
+    fn deref(&self) -> &[T] {
+        self.values.get()
     }
 }
 
@@ -143,14 +137,12 @@ fn out_of_memory(bytes: usize) -> ! {
 
 /// Pages that `bytes` of values occupy.
 fn resident(bytes: usize) -> usize {
-    round_up(
-        bytes,
-        if bytes >= ADVISE_FROM {
-            HUGE_PAGE
-        } else {
-            PAGE
-        },
-    )
+    round_up(bytes, if advised(bytes) { HUGE_PAGE } else { PAGE })
+}
+
+/// Whether an array of `bytes` goes on huge pages (see [`ADVISE_FROM`]).
+fn advised(bytes: usize) -> bool {
+    bytes >= ADVISE_FROM
 }
 
 fn round_up(bytes: usize, page: usize) -> usize {
@@ -180,15 +172,7 @@ impl<T> Drop for HugeArray<T> {
 
 impl<T: Pod> Clone for HugeArray<T> {
     fn clone(&self) -> Self {
-        Self::from_slice(self.as_slice())
-    }
-}
-
-impl<T: Pod> FromIterator<T> for HugeArray<T> {
-    /// Collects through a `Vec`: for arrays built once, where the copy is
-    /// small beside the work that made the values.
-    fn from_iter<I: IntoIterator<Item = T>>(iter: I) -> Self {
-        Self::from_slice(&iter.into_iter().collect::<Vec<T>>())
+        Self::from_slice(self)
     }
 }
 
@@ -207,11 +191,11 @@ mod tests {
     #[test]
     fn small_and_empty_arrays_hold_their_values() {
         let empty: HugeArray<u32> = HugeArray::default();
-        assert!(empty.is_empty() && empty.as_slice().is_empty());
+        assert!(empty.is_empty() && empty[..].is_empty());
         let small = HugeArray::from_slice(&[1u32, 2, 3]);
-        assert_eq!(small.as_slice(), &[1, 2, 3]);
+        assert_eq!(small[..], [1, 2, 3]);
         assert_eq!(small.resident_bytes(), PAGE);
-        assert_eq!(small.clone().as_slice(), &[1, 2, 3]);
+        assert_eq!(small.clone()[..], [1, 2, 3]);
     }
 
     #[test]
@@ -223,10 +207,10 @@ mod tests {
                 *v = i as u32;
             }
         });
-        assert_eq!(a.as_slice().as_ptr() as usize % HUGE_PAGE, 0);
+        assert_eq!(a.as_ptr() as usize % HUGE_PAGE, 0);
         let b = a.clone();
         assert_eq!(b.len(), len);
-        assert!(b.as_slice().iter().enumerate().all(|(i, &v)| v == i as u32));
+        assert!(b.iter().enumerate().all(|(i, &v)| v == i as u32));
         assert_eq!(b.resident_bytes(), ADVISE_FROM + HUGE_PAGE);
     }
 }

@@ -29,7 +29,7 @@ type Lanes = f32x8;
 /// packet holds a whole BVH leaf — vertices and the caller's triangle ids
 /// — and loads as SIMD lanes. Entries that are not triangles hold NaN,
 /// which no ray can hit. The packets of a large mesh sit on huge pages
-/// (see [`HugeArray`]); traversal reads them through a [`PacketView`].
+/// (see [`HugeArray`]).
 #[derive(Clone, Debug, Default)]
 pub struct TrianglePackets {
     packets: HugeArray<Packet>,
@@ -85,42 +85,8 @@ impl TrianglePackets {
         Self { packets, any }
     }
 
-    /// The packets, for one traversal.
-    #[inline(always)]
-    pub fn view(&self) -> PacketView<'_> {
-        PacketView {
-            packets: self.packets.as_slice(),
-            any: &self.any,
-        }
-    }
-
-    /// Bytes held.
-    pub fn memory_bytes(&self) -> usize {
-        self.packets.resident_bytes() + self.any.capacity()
-    }
-
-    /// The id given to [`TrianglePackets::new`] for entry `i`.
-    pub fn id(&self, i: usize) -> u32 {
-        self.view().id(i)
-    }
-
-    /// The vertices of entry `i` (NaN for one that is not a triangle).
-    pub fn vertices(&self, i: usize) -> [Vec3; 3] {
-        self.view().vertices(i)
-    }
-}
-
-/// [`TrianglePackets`] seen as plain slices: what traversal reads, taken
-/// once per ray rather than at every leaf.
-#[derive(Clone, Copy, Debug)]
-pub struct PacketView<'a> {
-    packets: &'a [Packet],
-    any: &'a [bool],
-}
-
-impl PacketView<'_> {
     /// Asks the cache for the packet holding position `start` (see
-    /// `Bvh::closest_leaves`); a hint only.
+    /// `Bvh::prefetch`); a hint only.
     #[inline(always)]
     pub fn prefetch(&self, start: usize) {
         #[cfg(target_arch = "x86_64")]
@@ -134,6 +100,11 @@ impl PacketView<'_> {
         }
         #[cfg(not(target_arch = "x86_64"))]
         let _ = start;
+    }
+
+    /// Bytes held.
+    pub fn memory_bytes(&self) -> usize {
+        self.packets.resident_bytes() + self.any.capacity()
     }
 
     /// The id given to [`TrianglePackets::new`] for entry `i`.
@@ -273,7 +244,7 @@ impl WatertightRay {
     #[inline(always)]
     pub fn intersect_packet(
         &self,
-        p: &PacketView,
+        p: &TrianglePackets,
         start: usize,
         count: usize,
         t_max: f32,
@@ -365,7 +336,7 @@ impl WatertightRay {
     #[inline(never)]
     fn retest_exact_lanes(
         &self,
-        p: &PacketView,
+        p: &TrianglePackets,
         start: usize,
         mut exact: u32,
         t_max: f32,
@@ -489,7 +460,7 @@ mod tests {
                             .map(|h| (i - start, h))
                     })
                     .min_by(|a, b| a.1.t.total_cmp(&b.1.t));
-                let simd = wr.intersect_packet(&packets.view(), start, count, f32::INFINITY);
+                let simd = wr.intersect_packet(&packets, start, count, f32::INFINITY);
                 assert_eq!(scalar.map(|s| s.0), simd.map(|s| s.0));
                 if let (Some((_, a)), Some((_, b))) = (scalar, simd) {
                     assert!((a.t - b.t).abs() <= 1e-6 * a.t && (a.uv - b.uv).length() < 1e-5);
@@ -504,13 +475,13 @@ mod tests {
         let ray = Ray::new(c * 3.0, -c.normalize());
         assert_eq!(
             WatertightRay::new(&ray)
-                .intersect_packet(&mixed.view(), 0, 3, f32::INFINITY)
+                .intersect_packet(&mixed, 0, 3, f32::INFINITY)
                 .map(|h| h.0),
             Some(1)
         );
         assert_eq!(mixed.id(1), 7);
-        assert!(mixed.view().has_triangles(0));
-        assert!(!TrianglePackets::new(1, |_| None).view().has_triangles(0));
+        assert!(mixed.has_triangles(0));
+        assert!(!TrianglePackets::new(1, |_| None).has_triangles(0));
     }
 
     #[test]
