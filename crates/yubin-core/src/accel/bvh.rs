@@ -530,13 +530,12 @@ const ROUND_OFF: f32 = f32::EPSILON * 0.5;
 impl RayLanes {
     #[inline]
     fn new(ray: &Ray) -> Self {
-        // A zero direction component becomes a tiny one, so that its
-        // reciprocal stays finite and slabs never produce NaN; 1e-20
-        // keeps `o · (1/d)` finite for any origin within 1e18. All three
-        // axes at once: one division instead of three.
-        let d = Vec3A::from(ray.d);
-        let tiny = Vec3A::splat(1e-20).copysign(d);
-        let inv = Vec3A::ONE / Vec3A::select(d.abs().cmplt(Vec3A::splat(1e-20)), tiny, d);
+        // Reciprocals are clamped to ±1e20 (a zero direction component
+        // gives ±infinity, signed like the zero), so that slabs never
+        // produce NaN; 1e20 keeps `o · (1/d)` finite for any origin within
+        // 1e18. All three axes at once: one division instead of three.
+        let limit = Vec3A::splat(1e20);
+        let inv = (Vec3A::ONE / Vec3A::from(ray.d)).clamp(-limit, limit);
         let c = Vec3A::from(ray.o) * inv;
         let slack = 16.0 * ROUND_OFF * c.abs();
         let grow = 1.0 + 8.0 * ROUND_OFF;
