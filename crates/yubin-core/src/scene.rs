@@ -76,26 +76,9 @@ struct TriangleRun {
 }
 
 impl Group {
-    /// Whether the leaf starting at `start` has triangles to test (only a
-    /// leaf of analytic shapes or instances has none).
-    #[inline]
-    fn packet_has_triangles(&self, start: usize) -> bool {
-        self.only_triangles || self.tris.has_triangles(start)
-    }
-
     /// Shape and primitive of the triangle with packet id `id`.
     fn triangle(&self, id: u32) -> (u32, u32) {
         triangle_of_id(&self.tri_runs, id)
-    }
-
-    /// The watertight shear of `ray`, set up before traversal in a group
-    /// of triangles only, where leaves need not then ask for it; `None`
-    /// otherwise, for the first triangle leaf to set up (in a room of
-    /// analytic walls most rays never meet a triangle). Each choice
-    /// measured faster on its kind of scene.
-    #[inline(always)]
-    fn early_shear(&self, ray: &Ray) -> Option<WatertightRay> {
-        self.only_triangles.then(|| WatertightRay::new(ray))
     }
 
     /// Every (shape, primitive) of the group's triangles and analytic
@@ -112,6 +95,34 @@ impl Group {
         });
         tris.chain(prims).collect()
     }
+}
+
+/// The closest triangle hit in a group of triangles only: packet id and
+/// hit. The shear is set up before traversal, so that its values can stay
+/// in registers through it (every leaf has triangles).
+#[inline(always)]
+fn closest_triangle(g: &Group, ray: &mut Ray) -> Option<(u32, PrimHit)> {
+    let wr = WatertightRay::new(ray);
+    let mut closest = None;
+    let prefetch = |start| g.tris.prefetch(start);
+    g.bvh.closest_leaves(ray, &prefetch, |start, count, r| {
+        let (lane, hit) = wr.intersect_packet(&g.tris, start, count, r.t_max)?;
+        closest = Some((lane + start, hit));
+        Some(hit.t)
+    });
+    closest.map(|(i, hit)| (g.tris.id(i), hit))
+}
+
+/// Whether a triangle of a group of triangles only blocks `ray` (see
+/// [`closest_triangle`]).
+#[inline(always)]
+fn triangle_occludes(g: &Group, ray: &Ray) -> bool {
+    let wr = WatertightRay::new(ray);
+    let prefetch = |start| g.tris.prefetch(start);
+    g.bvh.any_leaves(ray, &prefetch, |start, count, r| {
+        wr.intersect_packet(&g.tris, start, count, r.t_max)
+            .is_some()
+    })
 }
 
 /// The closest hit so far within one group.
@@ -212,7 +223,35 @@ impl Scene {
         ray: &mut Ray,
         instance: Option<u32>,
     ) -> Option<HitRecord> {
-        let mut shear = g.early_shear(ray);
+        let closest = if g.only_triangles {
+            closest_triangle(g, ray).map(|(id, hit)| Closest::Triangle(id, hit))
+        } else {
+            self.closest_item_or_triangle(g, ray, instance)
+        };
+        match closest? {
+            Closest::Other(rec) => Some(rec),
+            Closest::Triangle(id, hit) => {
+                let (shape, prim) = g.triangle(id);
+                Some(HitRecord {
+                    shape,
+                    prim,
+                    hit,
+                    instance,
+                })
+            }
+        }
+    }
+
+    /// [`Scene::closest_in_group`] in a group with analytic shapes or
+    /// instances. The shear is set up by the first leaf with triangles:
+    /// in a room of analytic walls most rays never meet one.
+    fn closest_item_or_triangle(
+        &self,
+        g: &Group,
+        ray: &mut Ray,
+        instance: Option<u32>,
+    ) -> Option<Closest> {
+        let mut shear = None;
         // A triangle hit keeps only its packet id: its shape and primitive
         // are looked up once, after traversal.
         let mut closest = None;
@@ -220,15 +259,12 @@ impl Scene {
         g.bvh.closest_leaves(ray, &prefetch, |start, count, r| {
             let mut best = None;
             // The leaf's triangles, all at once; other items are NaN lanes.
-            if g.packet_has_triangles(start) {
+            if g.tris.has_triangles(start) {
                 let wr = shear.get_or_insert_with(|| WatertightRay::new(r));
                 if let Some((lane, hit)) = wr.intersect_packet(&g.tris, start, count, r.t_max) {
                     closest = Some(Closest::Triangle(g.tris.id(start + lane), hit));
                     best = Some(hit.t);
                 }
-            }
-            if g.only_triangles {
-                return best;
             }
             let r = Ray {
                 t_max: best.unwrap_or(r.t_max),
@@ -242,18 +278,7 @@ impl Scene {
                 None => best,
             }
         });
-        match closest? {
-            Closest::Other(rec) => Some(rec),
-            Closest::Triangle(id, hit) => {
-                let (shape, prim) = g.triangle(id);
-                Some(HitRecord {
-                    shape,
-                    prim,
-                    hit,
-                    instance,
-                })
-            }
-        }
+        closest
     }
 
     /// Closest hit among the items (not triangles) at `range` of a group's
@@ -299,10 +324,14 @@ impl Scene {
 
     /// True when any item of the group blocks the ray.
     fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
-        let mut shear = g.early_shear(ray);
+        if g.only_triangles {
+            return triangle_occludes(g, ray);
+        }
+        // The shear is set up lazily, as in `closest_item_or_triangle`.
+        let mut shear = None;
         let prefetch = |start| g.tris.prefetch(start);
         g.bvh.any_leaves(ray, &prefetch, |start, count, r| {
-            if g.packet_has_triangles(start)
+            if g.tris.has_triangles(start)
                 && shear
                     .get_or_insert_with(|| WatertightRay::new(r))
                     .intersect_packet(&g.tris, start, count, r.t_max)
@@ -310,7 +339,7 @@ impl Scene {
             {
                 return true;
             }
-            !g.only_triangles && self.item_occludes(g, start..start + count, r)
+            self.item_occludes(g, start..start + count, r)
         })
     }
 
