@@ -179,10 +179,14 @@ fn build_once(mesh: &Mesh, threads: Option<usize>) -> Result<(EmbreeTracer, f64,
     }
 }
 
-/// Builds `reps` times with 1 and with all threads; keeps the last
+/// Builds `reps` times with 1 and with all threads, after one untimed
+/// warm-up build (see [`BuildStats::warm_up`]); keeps the last
 /// all-threads scene for tracing.
 pub fn build(mesh: &Mesh, reps: usize) -> Result<(EmbreeTracer, BuildStats)> {
     let mut stats = BuildStats::default();
+    // One untimed warm-up build (see `BuildStats::warm_up`).
+    let (_, warm_up, _, _) = build_once(mesh, Some(1))?;
+    stats.warm_up = Some(std::time::Duration::from_secs_f64(warm_up));
     for _ in 0..reps {
         let (_, dt, _, _) = build_once(mesh, Some(1))?;
         stats.build_1t.push(std::time::Duration::from_secs_f64(dt));

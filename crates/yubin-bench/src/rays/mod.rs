@@ -39,7 +39,8 @@
 //!   0.05) each measurement first waits until other processes use less
 //!   than X of the machine, and is repeated (up to 3 tries) if they used
 //!   more than 2X during it; every row's background load is in the log.
-//! - **Build**: median of `--build-reps` builds with 1 and with 2 threads.
+//! - **Build**: median of `--build-reps` builds with 1 and with 2 threads,
+//!   after one untimed warm-up build per backend ([`BuildStats::warm_up`]).
 //!   yubin: [`yubin_core::SceneBuilder::build`] on a 1- or 2-thread rayon
 //!   pool. Embree: `rtcCommitScene` on a `threads=1` or default device.
 //! - **Memory**: yubin, the bytes `add_shape` and `build` keep, from a
@@ -120,6 +121,17 @@ pub trait Tracer: Sync {
 /// Build times and memory of one backend on one mesh.
 #[derive(Clone, Debug, Default)]
 pub struct BuildStats {
+    /// The untimed warm-up build before the timed ones (1 thread).
+    ///
+    /// Each backend builds once, untimed, before its timed builds. The first
+    /// build in a process pays one-time costs of the operating system that
+    /// depend on what ran before: faulting in fresh memory and, for arrays
+    /// advised onto huge pages (both backends advise theirs), compacting
+    /// physical memory to find them. Run first, Embree's first build of n289
+    /// took 428 ms and its next ones 236 ms; run second, 231 ms from the
+    /// first. The warm-up makes the timed builds steady-state for both, in
+    /// either order (its time goes to the log).
+    pub warm_up: Option<Duration>,
     /// Each 1-thread build.
     pub build_1t: Vec<Duration>,
     /// Each 2-thread build.
@@ -812,7 +824,8 @@ fn bench_mesh(
 
 fn log_build(log: &mut Log, name: &str, s: &BuildStats, bg: f64) {
     log.say(format!(
-        "built {name}: 1T {:.1} ms {:?}, 2T {:.1} ms {:?}, accel {}, peak extra {} ({}; background {:.0}%)",
+        "built {name}: warm-up {:.1} ms, 1T {:.1} ms {:?}, 2T {:.1} ms {:?}, accel {}, peak extra {} ({}; background {:.0}%)",
+        s.warm_up.map_or(0.0, ms),
         ms(median(&s.build_1t)),
         s.build_1t.iter().map(|d| (ms(*d) * 10.0).round() / 10.0).collect::<Vec<_>>(),
         ms(median(&s.build_2t)),
