@@ -814,7 +814,10 @@ impl Bvh {
                 let t_near = t_near.to_array();
                 let second = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                let (near, far) = if t_near[second] < t_near[first] {
+                // Compared as integers, as distances are at least t_min ≥ 0
+                // (a negative one would only order the visit worse): the
+                // integer compare waits less for the spilled distances.
+                let (near, far) = if t_near[second].to_bits() < t_near[first].to_bits() {
                     (second, first)
                 } else {
                     (first, second)

@@ -121,17 +121,21 @@ impl TrianglePackets {
     }
 }
 
-/// A ray prepared for watertight triangle tests.
+/// A ray prepared for watertight triangle tests. Its values are kept
+/// broadcast to every lane and its axes as plain indices, so that a leaf
+/// starts testing at once: built from scalars, they were rebuilt in every
+/// leaf (five broadcasts, three index loads and their clamps), and a
+/// primary ray tests about one leaf.
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
     /// Origin, in the permuted axis order `k`.
-    o: [f32; 3],
+    o: [Lanes; 3],
     /// Shear constants, in the permuted order: `-d.x / d.z`, `-d.y / d.z`
     /// and `1 / d.z`.
-    s: [f32; 3],
-    t_min: f32,
-    /// Axis permutation: the ray's dominant axis last.
-    k: [u8; 3],
+    s: [Lanes; 3],
+    t_min: Lanes,
+    /// Axis permutation: the ray's dominant axis last. Each below 3.
+    k: [usize; 3],
 }
 
 /// Per dominant axis (the row), the axes taken as x, y and z of the
@@ -170,19 +174,15 @@ impl WatertightRay {
         let axes = AXES[kz & 3];
         let d = permuted(ray.d, axes);
         let sz = 1.0 / d.z;
+        let splat = |v: Vec3A| v.to_array().map(Lanes::splat);
         Self {
-            o: permuted(ray.o, axes).to_array(),
-            s: (-d * sz).with_z(sz).to_array(),
-            t_min: ray.t_min,
-            k: [axes[0] as u8, axes[1] as u8, axes[2] as u8],
+            o: splat(permuted(ray.o, axes)),
+            s: splat((-d * sz).with_z(sz)),
+            t_min: Lanes::splat(ray.t_min),
+            // The minimum spares bounds checks (the values are below 3
+            // already); taken here, it is taken once per ray.
+            k: [0, 1, 2].map(|i| (axes[i] as usize).min(2)),
         }
-    }
-
-    /// The permutation as indices below 3 (the minimum spares bounds
-    /// checks; the values are below 3 already).
-    #[inline(always)]
-    fn axes(&self) -> [usize; 3] {
-        self.k.map(|k| usize::from(k).min(2))
     }
 
     /// Intersects the triangle `v` within `(t_min, t_max)`; returns the
@@ -216,9 +216,9 @@ impl WatertightRay {
     /// is what makes the test watertight.
     #[inline(always)]
     fn shear(&self, v: &[[Lanes; 3]; 3]) -> Sheared {
-        let [kx, ky, kz] = self.axes();
-        let [ox, oy, oz] = self.o.map(Lanes::splat);
-        let [sx, sy, sz] = self.s.map(Lanes::splat);
+        let [kx, ky, kz] = self.k;
+        let [ox, oy, oz] = self.o;
+        let [sx, sy, sz] = self.s;
         // Indexed, not mapped: mapping would copy the packet.
         let z: [Lanes; 3] = std::array::from_fn(|i| v[i][kz] - oz);
         Sheared {
@@ -264,8 +264,7 @@ impl WatertightRay {
         let sign = det & Lanes::splat(-0.0);
         let (t_signed, det_abs) = (t_scaled ^ sign, det.abs());
         let in_range = bits(
-            t_signed.cmp_gt(Lanes::splat(self.t_min) * det_abs)
-                & t_signed.cmp_lt(Lanes::splat(t_max) * det_abs),
+            t_signed.cmp_gt(self.t_min * det_abs) & t_signed.cmp_lt(Lanes::splat(t_max) * det_abs),
         );
         let mut hit = lanes & !exact & !mixed & !bits(det.cmp_eq(zero)) & in_range;
         let mut best: Option<(usize, PrimHit)> = None;
@@ -301,7 +300,7 @@ impl WatertightRay {
     fn finish(&self, t_scaled: f32, v: f32, w: f32, det: f32, limit: f32) -> Option<PrimHit> {
         let inv = 1.0 / det;
         let t = t_scaled * inv;
-        (t > self.t_min && t < limit).then(|| PrimHit {
+        (t > self.t_min.as_array_ref()[0] && t < limit).then(|| PrimHit {
             t,
             uv: Vec2::new(v * inv, w * inv),
         })
