@@ -257,33 +257,29 @@ impl WatertightRay {
         let mixed = bits(low.cmp_lt(zero) & high.cmp_gt(zero));
         let exact = bits(low.cmp_eq(zero) | high.cmp_eq(zero)) & lanes & !mixed;
         let det = u + v + w;
-        // The distance is t_scaled / det; compare t_scaled with the range
-        // scaled by |det| instead, so that only hit lanes pay a division
-        // (Woop et al. 2013, listing 1).
         let t_scaled = u * az + v * bz + w * cz;
-        let sign = det & Lanes::splat(-0.0);
-        let (t_signed, det_abs) = (t_scaled ^ sign, det.abs());
-        let in_range = bits(
-            t_signed.cmp_gt(self.t_min * det_abs) & t_signed.cmp_lt(Lanes::splat(t_max) * det_abs),
-        );
-        let mut hit = lanes & !exact & !mixed & !bits(det.cmp_eq(zero)) & in_range;
+        // The distance is t_scaled / det. Dividing every lane, before
+        // knowing which hit, costs a division per leaf but starts it at
+        // once: a hit's distance is what the rest of traversal waits for,
+        // and a division begun only after the hit mask is known added its
+        // whole latency to that wait. A lane whose determinant is 0 is
+        // exact (u = v = w = 0) or NaN, never a hit here.
+        let inv = Lanes::ONE / det;
+        let t = t_scaled * inv;
+        let in_range = bits(t.cmp_gt(self.t_min) & t.cmp_lt(Lanes::splat(t_max)));
+        let mut hit = lanes & !exact & !mixed & in_range;
         let mut best: Option<(usize, PrimHit)> = None;
         if hit == 0 && exact == 0 {
             // Most leaves: nothing to finish, and nothing to store.
             return best;
         }
-        let (t_scaled, v, w, det) = (
-            t_scaled.to_array(),
-            v.to_array(),
-            w.to_array(),
-            det.to_array(),
-        );
+        let (t, b1, b2) = (t.to_array(), (v * inv).to_array(), (w * inv).to_array());
         while hit != 0 {
             let lane = hit.trailing_zeros() as usize;
             hit &= hit - 1;
-            let limit = best.map_or(t_max, |(_, b)| b.t);
-            if let Some(h) = self.finish(t_scaled[lane], v[lane], w[lane], det[lane], limit) {
-                best = Some((lane, h));
+            if best.is_none_or(|(_, b)| t[lane] < b.t) {
+                let uv = Vec2::new(b1[lane], b2[lane]);
+                best = Some((lane, PrimHit { t: t[lane], uv }));
             }
         }
         if exact != 0 {
@@ -294,8 +290,7 @@ impl WatertightRay {
 
     /// The hit of a lane with edge functions `v`, `w` (and `u`) of one
     /// sign, determinant `det` and scaled distance `t_scaled`, if within
-    /// `(t_min, limit)`. The division may round onto the range's ends, so
-    /// the range is checked again.
+    /// `(t_min, limit)`: the arithmetic of the packet test, lane by lane.
     #[inline(always)]
     fn finish(&self, t_scaled: f32, v: f32, w: f32, det: f32, limit: f32) -> Option<PrimHit> {
         let inv = 1.0 / det;
