@@ -184,7 +184,6 @@ fn build_once(mesh: &Mesh, threads: Option<usize>) -> Result<(EmbreeTracer, f64,
 /// all-threads scene for tracing.
 pub fn build(mesh: &Mesh, reps: usize) -> Result<(EmbreeTracer, BuildStats)> {
     let mut stats = BuildStats::default();
-    // One untimed warm-up build (see `BuildStats::warm_up`).
     let (_, warm_up, _, _) = build_once(mesh, Some(1))?;
     stats.warm_up = Some(std::time::Duration::from_secs_f64(warm_up));
     for _ in 0..reps {

@@ -190,7 +190,7 @@ impl WatertightRay {
     /// the very arithmetic of [`WatertightRay::intersect_packet`], so that
     /// a triangle tested either way gives the same answer.
     pub fn intersect(&self, v: &[Vec3; 3], t_max: f32) -> Option<PrimHit> {
-        let lanes = v.map(|p| p.to_array().map(|c| Lanes::new(std::array::from_fn(|_| c))));
+        let lanes = v.map(|p| p.to_array().map(Lanes::splat));
         self.intersect_lanes(&lanes, 1, t_max).map(|(_, hit)| hit)
     }
 
