@@ -179,8 +179,8 @@ fn build_once(mesh: &Mesh, threads: Option<usize>) -> Result<(EmbreeTracer, f64,
     }
 }
 
-/// Builds `reps` times with 1 and with all threads, after one untimed
-/// warm-up build (see [`BuildStats::warm_up`]); keeps the last
+/// Builds `reps` times with 1 and with all threads, each after one
+/// untimed warm-up build (see [`BuildStats::warm_up`]); keeps the last
 /// all-threads scene for tracing.
 pub fn build(mesh: &Mesh, reps: usize) -> Result<(EmbreeTracer, BuildStats)> {
     let mut stats = BuildStats::default();
@@ -190,6 +190,7 @@ pub fn build(mesh: &Mesh, reps: usize) -> Result<(EmbreeTracer, BuildStats)> {
         let (_, dt, _, _) = build_once(mesh, Some(1))?;
         stats.build_1t.push(std::time::Duration::from_secs_f64(dt));
     }
+    build_once(mesh, None)?;
     let mut kept = None;
     for _ in 0..reps {
         let (tracer, dt, retained, peak) = build_once(mesh, None)?;

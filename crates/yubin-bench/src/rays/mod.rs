@@ -40,7 +40,8 @@
 //!   than X of the machine, and is repeated (up to 3 tries) if they used
 //!   more than 2X during it; every row's background load is in the log.
 //! - **Build**: median of `--build-reps` builds with 1 and with 2 threads,
-//!   after one untimed warm-up build per backend ([`BuildStats::warm_up`]).
+//!   after one untimed warm-up build per backend and thread count
+//!   ([`BuildStats::warm_up`]).
 //!   yubin: [`yubin_core::SceneBuilder::build`] on a 1- or 2-thread rayon
 //!   pool. Embree: `rtcCommitScene` on a `threads=1` or default device.
 //! - **Memory**: yubin, the bytes `add_shape` and `build` keep, from a
@@ -130,7 +131,10 @@ pub struct BuildStats {
     /// physical memory to find them. Run first, Embree's first build of n289
     /// took 428 ms and its next ones 236 ms; run second, 231 ms from the
     /// first. The warm-up makes the timed builds steady-state for both, in
-    /// either order (its time goes to the log).
+    /// either order (its time goes to the log). A second, untimed warm-up
+    /// runs on 2 threads before the 2-thread builds: yubin's first one or
+    /// two builds on a fresh 2-thread pool took 22–24 ms where the next
+    /// ones took 12–14 ms (n92), as its new threads' heaps were set up.
     pub warm_up: Option<Duration>,
     /// Each 1-thread build.
     pub build_1t: Vec<Duration>,

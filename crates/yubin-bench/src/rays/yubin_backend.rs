@@ -42,8 +42,17 @@ fn prepare(mesh: &Mesh) -> Result<(SceneBuilder, isize)> {
     Ok((builder, items))
 }
 
-/// Builds `reps` times on each pool, after one untimed warm-up build (see
-/// [`BuildStats::warm_up`]); keeps the last scene built on `pool2`.
+/// Builds `reps` times on each pool, after one untimed warm-up build on
+/// each (see [`BuildStats::warm_up`]), then once more on `pool2`,
+/// untimed, with the counting allocator on for the memory figures; keeps
+/// that scene.
+///
+/// The timed builds run with counting off: while on, every allocation
+/// updates shared atomics, and two threads allocating the binary tree's
+/// nodes at once made the 2-thread builds contend for their cache line
+/// (n92: 17–25 ms counted against 12–15 ms uncounted). Embree's
+/// allocations never pass through it (its bytes come from the device's
+/// memory monitor, a call per allocated block).
 pub fn build(
     mesh: &Mesh,
     reps: usize,
@@ -51,49 +60,47 @@ pub fn build(
     pool2: &rayon::ThreadPool,
 ) -> Result<(YubinTracer, BuildStats)> {
     let mut stats = BuildStats::default();
-    let (builder, _) = prepare(mesh)?;
-    let t0 = Instant::now();
-    drop(pool1.install(|| builder.build())?);
-    stats.warm_up = Some(t0.elapsed());
-    let mut kept = None;
-    for (pool, times) in [(pool1, 1), (pool2, 2)] {
-        for _ in 0..reps {
-            let (builder, items) = prepare(mesh)?;
-            let counter = Counter::start();
-            let t0 = Instant::now();
-            let scene = pool.install(|| builder.build())?;
-            let dt = t0.elapsed();
-            let (retained, peak) = (counter.retained(), counter.peak());
-            drop(counter);
-            if times == 1 {
-                stats.build_1t.push(dt);
-            } else {
-                stats.build_2t.push(dt);
-                stats.accel_bytes = Some((retained + items).max(0) as usize);
-                stats.peak_build_bytes = Some(peak.max(0) as usize);
-                let shape = scene.bvh_stats();
-                stats.note = format!(
-                    "BVH {:.1} MiB (retained by `build`) + item list {:.1} MiB (retained by `add_shape`); \
-                     {} nodes ({:.2} children each, histogram {:?}), {} leaves ({:.2} triangles each); \
-                     SAH: nodes {:.3}, leaves {:.3} (expected visits per ray through the root box); \
-                     depth {} (area-weighted mean over leaves {:.2})",
-                    super::mib(retained.max(0) as usize),
-                    super::mib(items.max(0) as usize),
-                    shape.nodes,
-                    shape.child_slots as f64 / shape.nodes.max(1) as f64,
-                    shape.children_histogram,
-                    shape.leaves,
-                    shape.leaf_prims as f64 / shape.leaves.max(1) as f64,
-                    shape.node_sah,
-                    shape.leaf_sah,
-                    shape.depth,
-                    shape.leaf_depth,
-                );
-                kept = Some(scene);
-            }
-        }
+    let timed_build = |pool: &rayon::ThreadPool| -> Result<std::time::Duration> {
+        let (builder, _) = prepare(mesh)?;
+        let t0 = Instant::now();
+        let scene = pool.install(|| builder.build())?;
+        let dt = t0.elapsed();
+        drop(scene);
+        Ok(dt)
+    };
+    stats.warm_up = Some(timed_build(pool1)?);
+    for _ in 0..reps {
+        stats.build_1t.push(timed_build(pool1)?);
     }
-    let scene = kept.expect("reps > 0");
+    timed_build(pool2)?;
+    for _ in 0..reps {
+        stats.build_2t.push(timed_build(pool2)?);
+    }
+    let (builder, items) = prepare(mesh)?;
+    let counter = Counter::start();
+    let scene = pool2.install(|| builder.build())?;
+    let (retained, peak) = (counter.retained(), counter.peak());
+    drop(counter);
+    stats.accel_bytes = Some((retained + items).max(0) as usize);
+    stats.peak_build_bytes = Some(peak.max(0) as usize);
+    let shape = scene.bvh_stats();
+    stats.note = format!(
+        "BVH {:.1} MiB (retained by `build`) + item list {:.1} MiB (retained by `add_shape`); \
+         {} nodes ({:.2} children each, histogram {:?}), {} leaves ({:.2} triangles each); \
+         SAH: nodes {:.3}, leaves {:.3} (expected visits per ray through the root box); \
+         depth {} (area-weighted mean over leaves {:.2})",
+        super::mib(retained.max(0) as usize),
+        super::mib(items.max(0) as usize),
+        shape.nodes,
+        shape.child_slots as f64 / shape.nodes.max(1) as f64,
+        shape.children_histogram,
+        shape.leaves,
+        shape.leaf_prims as f64 / shape.leaves.max(1) as f64,
+        shape.node_sah,
+        shape.leaf_sah,
+        shape.depth,
+        shape.leaf_depth,
+    );
     Ok((YubinTracer { scene }, stats))
 }
 
