@@ -829,28 +829,55 @@ impl Bvh {
                     code = node.child[near];
                     continue;
                 }
-                // Three or more: insert all into the stack in far-to-near
-                // order and continue with the nearest.
-                let base = stack.len();
-                let _ = stack.try_push((node.child[far], t_near[far]));
-                let _ = stack.try_push((node.child[near], t_near[near]));
-                self.prefetch(node.child[far], prefetch);
-                self.prefetch(node.child[near], prefetch);
-                while mask != 0 {
-                    let slot = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let _ = stack.try_push((node.child[slot], t_near[slot]));
-                    self.prefetch(node.child[slot], prefetch);
-                    let mut i = stack.len() - 1;
-                    while i > base && stack[i - 1].1 < stack[i].1 {
-                        stack.swap(i - 1, i);
-                        i -= 1;
+                // Three or more: sorted by networks of compare-exchanges on
+                // (distance bits, code) keys, which compile to conditional
+                // moves (an insertion sort branches on the distances, which
+                // incoherent rays make random); all but the nearest are
+                // pushed far to near.
+                let key =
+                    |s: usize| (u64::from(t_near[s].to_bits()) << 32) | u64::from(node.child[s]);
+                let mut push = |k: u64| {
+                    let _ = stack.try_push((k as u32, f32::from_bits((k >> 32) as u32)));
+                    self.prefetch(k as u32, prefetch);
+                };
+                let third = key(mask.trailing_zeros() as usize);
+                let rest = mask & (mask - 1);
+                let nearest = if rest == 0 {
+                    let (b, c) = order(key(far), third);
+                    let (a, b) = order(key(near), b);
+                    push(c);
+                    push(b);
+                    a
+                } else if rest & (rest - 1) == 0 {
+                    let (c, d) = order(third, key(rest.trailing_zeros() as usize));
+                    let (a, c) = order(key(near), c);
+                    let (b, d) = order(key(far), d);
+                    let (b, c) = order(b, c);
+                    push(d);
+                    push(c);
+                    push(b);
+                    a
+                } else {
+                    // Five or more: padded to eight with the greatest key,
+                    // sorted by Knuth's 19-comparator network (TAOCP vol.
+                    // 3, §5.3.4).
+                    let mut keys = [u64::MAX; WIDTH];
+                    let mut n = 0;
+                    let mut all = mask | (1 << near) | (1 << far);
+                    while all != 0 {
+                        keys[n & (WIDTH - 1)] = key(all.trailing_zeros() as usize);
+                        all &= all - 1;
+                        n += 1;
                     }
-                }
-                match stack.pop() {
-                    Some((next, _)) => code = next,
-                    None => break 'trace,
-                }
+                    for (i, j) in SORT8 {
+                        (keys[i], keys[j]) = order(keys[i], keys[j]);
+                    }
+                    for &k in keys[1..n.min(WIDTH)].iter().rev() {
+                        push(k);
+                    }
+                    keys[0]
+                };
+                code = nearest as u32;
             }
             let (start, count) = leaf_span(code);
             if let Some(t) = leaf(start, count, ray) {
@@ -952,6 +979,35 @@ impl Bvh {
 #[inline]
 fn prim_at(prims: &[u32], i: usize) -> u32 {
     prims.get(i).copied().unwrap_or(i as u32)
+}
+
+/// A sorting network for eight keys.
+const SORT8: [(usize, usize); 19] = [
+    (0, 2),
+    (1, 3),
+    (4, 6),
+    (5, 7),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7),
+    (0, 1),
+    (2, 3),
+    (4, 5),
+    (6, 7),
+    (2, 4),
+    (3, 5),
+    (1, 4),
+    (3, 6),
+    (1, 2),
+    (3, 4),
+    (5, 6),
+];
+
+/// Two keys, the smaller first.
+#[inline(always)]
+fn order(x: u64, y: u64) -> (u64, u64) {
+    (x.min(y), x.max(y))
 }
 
 /// Pops entries until one starts before `t_max`; returns its child code.
