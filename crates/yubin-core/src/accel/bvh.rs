@@ -775,8 +775,9 @@ impl Bvh {
     /// test later.
     ///
     /// Traversal descends straight into the nearest child a node's ray
-    /// test finds, pushing the others far-to-near, so a node with a single
-    /// hit child costs no stack traffic.
+    /// test finds, pushing the others far-to-near (sorted branch-free by
+    /// sorting networks), so a node with a single hit child costs no stack
+    /// traffic.
     #[inline]
     pub fn closest_leaves(
         &self,
