@@ -1575,6 +1575,19 @@ mod tests {
     }
 
     #[test]
+    fn sorting_network_sorts_every_input() {
+        // The 0-1 principle (Knuth, TAOCP vol. 3, §5.3.4): a network that
+        // sorts every sequence of zeros and ones sorts every sequence.
+        for bits in 0u32..1 << WIDTH {
+            let mut keys: [u64; WIDTH] = std::array::from_fn(|i| u64::from((bits >> i) & 1));
+            for (i, j) in SORT8 {
+                (keys[i], keys[j]) = order(keys[i], keys[j]);
+            }
+            assert!(keys.windows(2).all(|w| w[0] <= w[1]), "{bits:08b}");
+        }
+    }
+
+    #[test]
     fn empty_bvh_hits_nothing() {
         let bvh = Bvh::build(&[]);
         let mut ray = Ray::new(Vec3::ZERO, Vec3::X);
