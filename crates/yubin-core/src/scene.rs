@@ -101,15 +101,17 @@ impl Group {
 /// hit. The shear is set up before traversal, so that its values can stay
 /// in registers through it (every leaf has triangles).
 #[inline(always)]
-fn closest_triangle(g: &Group, ray: &mut Ray) -> Option<(u32, PrimHit)> {
-    let wr = WatertightRay::new(ray);
+fn closest_triangle(g: &Group, ray: &Ray) -> Option<(u32, PrimHit)> {
+    let vectors = ray.vectors();
+    let wr = WatertightRay::from_vectors(&vectors, ray.t_min);
     let mut closest = None;
     let prefetch = |start| g.tris.prefetch(start);
-    g.bvh.closest_leaves(ray, &prefetch, |start, count, r| {
-        let (lane, hit) = wr.intersect_packet(&g.tris, start, count, r.t_max)?;
-        closest = Some((lane + start, hit));
-        Some(hit.t)
-    });
+    g.bvh
+        .closest_leaves(ray, &vectors, &prefetch, |start, count, t_max| {
+            let (lane, hit) = wr.intersect_packet(&g.tris, start, count, t_max)?;
+            closest = Some((lane + start, hit));
+            Some(hit.t)
+        });
     closest.map(|(i, hit)| (g.tris.id(i), hit))
 }
 
@@ -117,10 +119,11 @@ fn closest_triangle(g: &Group, ray: &mut Ray) -> Option<(u32, PrimHit)> {
 /// [`closest_triangle`]).
 #[inline(always)]
 fn triangle_occludes(g: &Group, ray: &Ray) -> bool {
-    let wr = WatertightRay::new(ray);
+    let vectors = ray.vectors();
+    let wr = WatertightRay::from_vectors(&vectors, ray.t_min);
     let prefetch = |start| g.tris.prefetch(start);
-    g.bvh.any_leaves(ray, &prefetch, |start, count, r| {
-        wr.intersect_packet(&g.tris, start, count, r.t_max)
+    g.bvh.any_leaves(ray, &vectors, &prefetch, |start, count| {
+        wr.intersect_packet(&g.tris, start, count, ray.t_max)
             .is_some()
     })
 }
@@ -193,8 +196,12 @@ impl Scene {
 
     /// Closest hit along `ray` within its interval.
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
-        let (r, h) = self.closest_hit(ray)?;
-        Some(self.interaction(ray, &r, h))
+        let h = self.closest_hit(ray)?;
+        let closest = Ray {
+            t_max: h.hit.t,
+            ..*ray
+        };
+        Some(self.interaction(ray, &closest, h))
     }
 
     /// Shape of the top-level BVH (for benchmarks and tuning).
@@ -204,25 +211,22 @@ impl Scene {
 
     /// Distance, shape and primitive of the closest hit, without computing
     /// the surface interaction (for ray-throughput benchmarks and tests).
+    #[inline]
     pub fn intersect_distance(&self, ray: &Ray) -> Option<(f32, u32, u32)> {
-        self.closest_hit(ray)
-            .map(|(r, h)| (r.t_max, h.shape, h.prim))
+        self.closest_hit(ray).map(|h| (h.hit.t, h.shape, h.prim))
     }
 
-    fn closest_hit(&self, ray: &Ray) -> Option<(Ray, HitRecord)> {
-        let mut r = *ray;
-        let rec = self.closest_in_group(&self.groups[0], &mut r, None)?;
-        Some((r, rec))
+    /// The closest hit; its `hit.t` is the distance. The ray is passed on
+    /// as it is, not copied (see [`Bvh::closest_leaves`]).
+    #[inline]
+    fn closest_hit(&self, ray: &Ray) -> Option<HitRecord> {
+        self.closest_in_group(&self.groups[0], ray, None)
     }
 
-    /// Closest hit among a group's items; `ray.t_max` shrinks to it.
-    /// `instance` is the instance the group is seen through, if any.
-    fn closest_in_group(
-        &self,
-        g: &Group,
-        ray: &mut Ray,
-        instance: Option<u32>,
-    ) -> Option<HitRecord> {
+    /// Closest hit among a group's items within `ray`'s interval; its
+    /// `hit.t` is the distance. `instance` is the instance the group is
+    /// seen through, if any.
+    fn closest_in_group(&self, g: &Group, ray: &Ray, instance: Option<u32>) -> Option<HitRecord> {
         let closest = if g.only_triangles {
             closest_triangle(g, ray).map(|(id, hit)| Closest::Triangle(id, hit))
         } else {
@@ -248,7 +252,7 @@ impl Scene {
     fn closest_item_or_triangle(
         &self,
         g: &Group,
-        ray: &mut Ray,
+        ray: &Ray,
         instance: Option<u32>,
     ) -> Option<Closest> {
         let mut shear = None;
@@ -256,28 +260,31 @@ impl Scene {
         // are looked up once, after traversal.
         let mut closest = None;
         let prefetch = |start| g.tris.prefetch(start);
-        g.bvh.closest_leaves(ray, &prefetch, |start, count, r| {
-            let mut best = None;
-            // The leaf's triangles, all at once; other items are NaN lanes.
-            if g.tris.has_triangles(start) {
-                let wr = shear.get_or_insert_with(|| WatertightRay::new(r));
-                if let Some((lane, hit)) = wr.intersect_packet(&g.tris, start, count, r.t_max) {
-                    closest = Some(Closest::Triangle(g.tris.id(start + lane), hit));
-                    best = Some(hit.t);
+        let vectors = ray.vectors();
+        g.bvh
+            .closest_leaves(ray, &vectors, &prefetch, |start, count, t_max| {
+                let mut best = None;
+                // The leaf's triangles, all at once; other items are NaN lanes.
+                if g.tris.has_triangles(start) {
+                    let wr = shear
+                        .get_or_insert_with(|| WatertightRay::from_vectors(&vectors, ray.t_min));
+                    if let Some((lane, hit)) = wr.intersect_packet(&g.tris, start, count, t_max) {
+                        closest = Some(Closest::Triangle(g.tris.id(start + lane), hit));
+                        best = Some(hit.t);
+                    }
                 }
-            }
-            let r = Ray {
-                t_max: best.unwrap_or(r.t_max),
-                ..*r
-            };
-            match self.closest_item(g, start..start + count, r, instance) {
-                Some(h) => {
-                    closest = Some(Closest::Other(h));
-                    Some(h.hit.t)
+                let r = Ray {
+                    t_max: best.unwrap_or(t_max),
+                    ..*ray
+                };
+                match self.closest_item(g, start..start + count, r, instance) {
+                    Some(h) => {
+                        closest = Some(Closest::Other(h));
+                        Some(h.hit.t)
+                    }
+                    None => best,
                 }
-                None => best,
-            }
-        });
+            });
         closest
     }
 
@@ -306,12 +313,8 @@ impl Scene {
                     }),
                 Item::Instance(inst) => {
                     let placed = &self.instances[inst as usize];
-                    let mut local = to_local_ray(&r, &placed.to_world);
-                    self.closest_in_group(
-                        &self.groups[placed.group as usize],
-                        &mut local,
-                        Some(inst),
-                    )
+                    let local = to_local_ray(&r, &placed.to_world);
+                    self.closest_in_group(&self.groups[placed.group as usize], &local, Some(inst))
                 }
             };
             if let Some(h) = h {
@@ -330,16 +333,17 @@ impl Scene {
         // The shear is set up lazily, as in `closest_item_or_triangle`.
         let mut shear = None;
         let prefetch = |start| g.tris.prefetch(start);
-        g.bvh.any_leaves(ray, &prefetch, |start, count, r| {
+        let vectors = ray.vectors();
+        g.bvh.any_leaves(ray, &vectors, &prefetch, |start, count| {
             if g.tris.has_triangles(start)
                 && shear
-                    .get_or_insert_with(|| WatertightRay::new(r))
-                    .intersect_packet(&g.tris, start, count, r.t_max)
+                    .get_or_insert_with(|| WatertightRay::from_vectors(&vectors, ray.t_min))
+                    .intersect_packet(&g.tris, start, count, ray.t_max)
                     .is_some()
             {
                 return true;
             }
-            self.item_occludes(g, start..start + count, r)
+            self.item_occludes(g, start..start + count, ray)
         })
     }
 

@@ -12,7 +12,7 @@
 //! elsewhere; no `unsafe`).
 
 use super::HugeArray;
-use crate::math::{Bounds3, Ray};
+use crate::math::{Bounds3, Ray, RayVectors};
 use arrayvec::ArrayVec;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3A, Vec4};
@@ -529,14 +529,14 @@ const ROUND_OFF: f32 = f32::EPSILON * 0.5;
 
 impl RayLanes {
     #[inline]
-    fn new(ray: &Ray) -> Self {
+    fn new(ray: &RayVectors) -> Self {
         // Reciprocals are clamped to ±1e20 (a zero direction component
         // gives ±infinity, signed like the zero), so that slabs never
         // produce NaN; 1e20 keeps `o · (1/d)` finite for any origin within
         // 1e18. All three axes at once: one division instead of three.
         let limit = Vec3A::splat(1e20);
-        let inv = (Vec3A::ONE / Vec3A::from(ray.d)).clamp(-limit, limit);
-        let c = Vec3A::from(ray.o) * inv;
+        let inv = (Vec3A::ONE / ray.d).clamp(-limit, limit);
+        let c = ray.o * inv;
         let slack = 16.0 * ROUND_OFF * c.abs();
         let grow = 1.0 + 8.0 * ROUND_OFF;
         let far = slack - c;
@@ -753,8 +753,10 @@ impl Bvh {
     #[inline]
     pub fn closest(&self, ray: &mut Ray, mut hit: impl FnMut(u32, &Ray) -> Option<f32>) -> bool {
         let no_prefetch = |_| {};
-        self.closest_leaves(ray, &no_prefetch, |start, count, r| {
-            let mut r = *r;
+        let seen: &Ray = ray;
+        let vectors = seen.vectors();
+        let closest = self.closest_leaves(seen, &vectors, &no_prefetch, |start, count, t_max| {
+            let mut r = Ray { t_max, ..*seen };
             let mut best = None;
             for p in (start..start + count).map(|i| prim_at(&self.prims, i)) {
                 if let Some(t) = hit(p, &r) {
@@ -763,16 +765,26 @@ impl Bvh {
                 }
             }
             best
-        })
+        });
+        if let Some(t) = closest {
+            ray.t_max = t;
+        }
+        closest.is_some()
     }
 
     /// Like [`Bvh::closest`], but hands over whole leaves: `leaf(start,
-    /// count, ray)` tests positions `start..start + count` of the leaf
+    /// count, t_max)` tests positions `start..start + count` of the leaf
     /// order (after [`Bvh::take_leaf_order`], the caller's own indices) and
-    /// returns the nearest hit closer than `ray.t_max`. This lets callers
-    /// test a leaf's primitives together (SIMD triangle packets).
-    /// `prefetch(start)` may ask the cache for a leaf that traversal will
-    /// test later.
+    /// returns the nearest hit closer than `t_max`, the closest distance so
+    /// far. This lets callers test a leaf's primitives together (SIMD
+    /// triangle packets). `prefetch(start)` may ask the cache for a leaf
+    /// that traversal will test later. Returns the closest distance, if
+    /// anything was hit.
+    ///
+    /// `vectors` is `ray.vectors()`, taken by the caller, which usually
+    /// needs them too (for the triangle shear): read once, not twice. The
+    /// ray is never copied whole: see [`Ray::vectors`] for why loads of it
+    /// must stay narrow.
     ///
     /// Traversal descends straight into the nearest child a node's ray
     /// test finds, pushing the others far-to-near (sorted branch-free by
@@ -781,24 +793,26 @@ impl Bvh {
     #[inline]
     pub fn closest_leaves(
         &self,
-        ray: &mut Ray,
+        ray: &Ray,
+        vectors: &RayVectors,
         prefetch: &impl Fn(usize),
-        mut leaf: impl FnMut(usize, usize, &Ray) -> Option<f32>,
-    ) -> bool {
+        mut leaf: impl FnMut(usize, usize, f32) -> Option<f32>,
+    ) -> Option<f32> {
         if self.root == EMPTY {
-            return false;
+            return None;
         }
-        let lanes = RayLanes::new(ray);
+        let lanes = RayLanes::new(vectors);
         // ArrayVec: a fixed-capacity stack that is not zeroed per ray.
         let mut stack: ArrayVec<(u32, f32), STACK> = ArrayVec::new();
         let mut found = false;
+        let mut t_max = ray.t_max;
         let mut code = self.root;
         'trace: loop {
             while code & LEAF_BIT == 0 {
                 let node = &self.nodes[code as usize];
-                let (t_near, mut mask) = lanes.hit_children(node, ray.t_min, ray.t_max);
+                let (t_near, mut mask) = lanes.hit_children(node, ray.t_min, t_max);
                 if mask == 0 {
-                    match pop_within(&mut stack, ray.t_max) {
+                    match pop_within(&mut stack, t_max) {
                         Some(next) => {
                             code = next;
                             continue;
@@ -881,16 +895,16 @@ impl Bvh {
                 code = nearest as u32;
             }
             let (start, count) = leaf_span(code);
-            if let Some(t) = leaf(start, count, ray) {
-                ray.t_max = t;
+            if let Some(t) = leaf(start, count, t_max) {
+                t_max = t;
                 found = true;
             }
-            match pop_within(&mut stack, ray.t_max) {
+            match pop_within(&mut stack, t_max) {
                 Some(next) => code = next,
                 None => break,
             }
         }
-        found
+        found.then_some(t_max)
     }
 
     /// True when any primitive blocks the ray in its interval. `hit` tests
@@ -899,23 +913,26 @@ impl Bvh {
     #[inline]
     pub fn any(&self, ray: &Ray, mut hit: impl FnMut(u32, &Ray) -> bool) -> bool {
         let no_prefetch = |_| {};
-        self.any_leaves(ray, &no_prefetch, |start, count, r| {
-            (start..start + count).any(|i| hit(prim_at(&self.prims, i), r))
+        self.any_leaves(ray, &ray.vectors(), &no_prefetch, |start, count| {
+            (start..start + count).any(|i| hit(prim_at(&self.prims, i), ray))
         })
     }
 
-    /// Like [`Bvh::any`], leaf by leaf (see [`Bvh::closest_leaves`]).
+    /// Like [`Bvh::any`], leaf by leaf (see [`Bvh::closest_leaves`]):
+    /// `leaf(start, count)` says whether a primitive of the leaf blocks the
+    /// ray.
     #[inline]
     pub fn any_leaves(
         &self,
         ray: &Ray,
+        vectors: &RayVectors,
         prefetch: &impl Fn(usize),
-        mut leaf: impl FnMut(usize, usize, &Ray) -> bool,
+        mut leaf: impl FnMut(usize, usize) -> bool,
     ) -> bool {
         if self.root == EMPTY {
             return false;
         }
-        let lanes = RayLanes::new(ray);
+        let lanes = RayLanes::new(vectors);
         let mut stack: ArrayVec<u32, STACK> = ArrayVec::new();
         let mut code = self.root;
         loop {
@@ -941,7 +958,7 @@ impl Bvh {
                 }
             }
             let (start, count) = leaf_span(code);
-            if leaf(start, count, ray) {
+            if leaf(start, count) {
                 return true;
             }
             match stack.pop() {

@@ -11,7 +11,7 @@
 
 use super::PrimHit;
 use crate::accel::HugeArray;
-use crate::math::Ray;
+use crate::math::{Ray, RayVectors};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3, Vec3A};
 use wide::{f32x8, CmpEq, CmpGt, CmpLt};
@@ -147,13 +147,12 @@ const AXES: [[i32; 4]; 4] = [[1, 2, 0, 3], [2, 0, 1, 3], [0, 1, 2, 3], [0, 1, 2,
 
 /// `v`'s components in the order `axes` (the first three of them).
 #[inline(always)]
-fn permuted(v: Vec3, axes: [i32; 4]) -> Vec3A {
+fn permuted(v: Vec3A, axes: [i32; 4]) -> Vec3A {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
     {
         // One variable shuffle instead of a trip through memory.
         use safe_arch::{m128, m128i, shuffle_av_f32_all_m128};
-        let v = m128(Vec3A::from(v).into());
-        Vec3A::from(shuffle_av_f32_all_m128(v, m128i::from(axes)).0)
+        Vec3A::from(shuffle_av_f32_all_m128(m128(v.into()), m128i::from(axes)).0)
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
     {
@@ -163,10 +162,17 @@ fn permuted(v: Vec3, axes: [i32; 4]) -> Vec3A {
 }
 
 impl WatertightRay {
-    /// Precomputes the shear of `ray`. Always inlined: it runs once per
-    /// ray, before traversal, and its values then stay in registers.
+    /// Precomputes the shear of `ray`.
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
+        Self::from_vectors(&ray.vectors(), ray.t_min)
+    }
+
+    /// Precomputes the shear of the ray with these vectors (from
+    /// [`Ray::vectors`]) and start `t_min`. Always inlined: it runs once
+    /// per ray, before traversal, and its values then stay in registers.
+    #[inline(always)]
+    pub fn from_vectors(ray: &RayVectors, t_min: f32) -> Self {
         let a = ray.d.abs();
         // The dominant axis, without branches (rays are incoherent, so
         // branches on their direction mispredict).
@@ -178,7 +184,7 @@ impl WatertightRay {
         Self {
             o: splat(permuted(ray.o, axes)),
             s: splat((-d * sz).with_z(sz)),
-            t_min: Lanes::splat(ray.t_min),
+            t_min: Lanes::splat(t_min),
             // The minimum spares bounds checks (the values are below 3
             // already); taken here, it is taken once per ray.
             k: [0, 1, 2].map(|i| (axes[i] as usize).min(2)),
