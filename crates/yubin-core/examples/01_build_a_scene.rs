@@ -17,12 +17,8 @@ use yubin_core::{Affine3A, Rgb, SceneBuilder, Vec3};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut sb = SceneBuilder::new();
-    let grey = sb.add_bsdf(Bsdf::Diffuse(Diffuse {
-        reflectance: Rgb::splat(0.7),
-    }));
-    let red = sb.add_bsdf(Bsdf::Diffuse(Diffuse {
-        reflectance: Rgb::new(0.8, 0.1, 0.1),
-    }));
+    let grey = sb.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(0.7))));
+    let red = sb.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::new(0.8, 0.1, 0.1))));
 
     // A 20×20 floor: the rectangle [-1, 1]² facing +z, turned to face +y.
     let floor = Affine3A::from_rotation_x(-FRAC_PI_2) * Affine3A::from_scale(Vec3::splat(10.0));

@@ -15,7 +15,9 @@ pub mod filter;
 pub mod integrator;
 pub mod interaction;
 pub mod light;
+pub mod material;
 pub mod math;
+pub mod params;
 pub mod render;
 pub mod sampler;
 pub mod sampling;
@@ -23,6 +25,7 @@ pub mod scene;
 pub mod shape;
 pub mod spectrum;
 pub mod testing;
+pub mod texture;
 
 pub use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec3A};
 pub use scene::{Scene, SceneBuilder};

@@ -10,6 +10,8 @@
 
 use crate::accel::{Bvh, PrimCost};
 use crate::bsdf::{Bsdf, Diffuse};
+use crate::material::Materials;
+use crate::texture::{TexImage, Texture};
 use crate::camera::{Camera, FovAxis, Perspective};
 use crate::film::Film;
 use crate::filter::Filter;
@@ -27,7 +29,7 @@ const _: () = assert!(crate::accel::MAX_LEAF == crate::shape::PACKET);
 /// What a shape is made of and whether it emits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ShapeInfo {
-    /// Index into [`Scene::bsdfs`].
+    /// Index into the BSDF table ([`Materials::bsdfs`]).
     pub bsdf: u32,
     /// Index into [`Scene::emitters`] when the shape is an area light.
     pub emitter: Option<u32>,
@@ -161,8 +163,8 @@ pub struct Scene {
     pub shapes: Vec<Shape>,
     /// Material and emission of each shape.
     pub shape_info: Vec<ShapeInfo>,
-    /// BSDF table.
-    pub bsdfs: Vec<Bsdf>,
+    /// BSDFs, textures and texture images.
+    pub materials: Materials,
     /// Emitters.
     pub emitters: Vec<Emitter>,
     /// Indices of emitters at infinity (hit by escaping rays).
@@ -391,7 +393,7 @@ impl Scene {
     /// The BSDF of a shape.
     #[inline]
     pub fn bsdf_of(&self, shape: u32) -> &Bsdf {
-        &self.bsdfs[self.shape_info[shape as usize].bsdf as usize]
+        &self.materials.bsdfs[self.shape_info[shape as usize].bsdf as usize]
     }
 
     /// The emitter of a shape, if it is an area light.
@@ -521,7 +523,7 @@ pub struct SceneBuilder {
     meshes: Vec<TriangleMesh>,
     shapes: Vec<Shape>,
     shape_info: Vec<ShapeInfo>,
-    bsdfs: Vec<Bsdf>,
+    materials: Materials,
     emitters: Vec<Emitter>,
     groups: Vec<Vec<Item>>,
     instances: Vec<Instance>,
@@ -544,7 +546,7 @@ impl SceneBuilder {
             meshes: Vec::new(),
             shapes: Vec::new(),
             shape_info: Vec::new(),
-            bsdfs: Vec::new(),
+            materials: Materials::default(),
             emitters: Vec::new(),
             groups: vec![Vec::new()],
             instances: Vec::new(),
@@ -556,8 +558,25 @@ impl SceneBuilder {
 
     /// Adds a BSDF; returns its index (for shapes and composite BSDFs).
     pub fn add_bsdf(&mut self, b: Bsdf) -> u32 {
-        self.bsdfs.push(b);
-        self.bsdfs.len() as u32 - 1
+        self.materials.bsdfs.push(b);
+        self.materials.bsdfs.len() as u32 - 1
+    }
+
+    /// Adds a texture; returns its index (for [`crate::texture::Tex::Texture`]).
+    pub fn add_texture(&mut self, t: Texture) -> u32 {
+        self.materials.textures.push(t);
+        self.materials.textures.len() as u32 - 1
+    }
+
+    /// Adds an image for textures; returns its index.
+    pub fn add_image(&mut self, image: TexImage) -> u32 {
+        self.materials.images.push(image);
+        self.materials.images.len() as u32 - 1
+    }
+
+    /// The BSDF at `index`, if there is one (what a front end built).
+    pub fn bsdf(&self, index: u32) -> Option<&Bsdf> {
+        self.materials.bsdfs.get(index as usize)
     }
 
     /// Adds triangle data; returns its index (for [`crate::shape::MeshShape`]).
@@ -609,7 +628,7 @@ impl SceneBuilder {
             }
         }
         let bsdf = match bsdf {
-            Some(b) if b as usize >= self.bsdfs.len() => {
+            Some(b) if b as usize >= self.materials.bsdfs.len() => {
                 return Err(BuildError::BadIndex {
                     what: "bsdf",
                     index: b,
@@ -684,10 +703,10 @@ impl SceneBuilder {
     /// a camera, a 45° perspective camera at the origin looking down +z
     /// is used.
     pub fn build(self) -> Result<Scene, BuildError> {
-        for b in &self.bsdfs {
+        for b in &self.materials.bsdfs {
             if let Bsdf::TwoSided(t) = b {
                 for index in [t.front, t.back] {
-                    if index as usize >= self.bsdfs.len() {
+                    if index as usize >= self.materials.bsdfs.len() {
                         return Err(BuildError::BadIndex {
                             what: "bsdf",
                             index,
@@ -805,7 +824,7 @@ impl SceneBuilder {
             meshes: self.meshes,
             shapes: self.shapes,
             shape_info: self.shape_info,
-            bsdfs: self.bsdfs,
+            materials: self.materials,
             emitters: self.emitters,
             environment_emitters,
             camera,

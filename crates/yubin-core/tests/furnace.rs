@@ -21,9 +21,7 @@ const RES: u32 = 16;
 
 fn furnace(albedo: f32) -> Scene {
     let mut b = SceneBuilder::new();
-    let bsdf = b.add_bsdf(Bsdf::Diffuse(Diffuse {
-        reflectance: Rgb::splat(albedo),
-    }));
+    let bsdf = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(albedo))));
     b.add_shape(
         Shape::Sphere(Sphere::new(Vec3::ZERO, 1.0, false)),
         Some(bsdf),

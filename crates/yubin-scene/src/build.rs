@@ -388,9 +388,12 @@ impl Builder<'_> {
             return Ok(id);
         }
         let bsdf = match obj.plugin_type.as_str() {
-            "diffuse" => Bsdf::Diffuse(Diffuse {
-                reflectance: color(obj, "reflectance", Some(Rgb::splat(0.5)), true)?,
-            }),
+            "diffuse" => Bsdf::Diffuse(Diffuse::new(color(
+                obj,
+                "reflectance",
+                Some(Rgb::splat(0.5)),
+                true,
+            )?)),
             "twosided" => {
                 let kids: Vec<Rc<Object>> = obj
                     .children_of(Category::Bsdf)

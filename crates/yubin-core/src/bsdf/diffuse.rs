@@ -1,8 +1,8 @@
 //! `diffuse`: the ideal Lambertian reflector, f = ρ/π.
 //!
-//! | parameter     | type           | default | meaning            |
-//! |---------------|----------------|---------|--------------------|
-//! | `reflectance` | rgb / spectrum | 0.5     | albedo ρ           |
+//! | parameter     | type                     | default | meaning  |
+//! |---------------|--------------------------|---------|----------|
+//! | `reflectance` | texture / rgb / spectrum | 0.5     | albedo ρ |
 //!
 //! ```xml
 //! <bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.25, 0.7"/></bsdf>
@@ -10,11 +10,14 @@
 //!
 //! One-sided (black from below; wrap it in `twosided` for both sides).
 //! Samples the cosine-weighted hemisphere, so the sample weight is ρ.
-//! pbrt-v4 §9.2.
+//! Mitsuba 3's `diffuse`; pbrt-v4 §9.2.
 
-use super::{Bsdf, BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
 use crate::interaction::SurfaceInteraction;
+use crate::material::Materials;
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::params::{ColorKind, ParamError, Params};
+use crate::texture::Tex;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -23,28 +26,44 @@ use std::f32::consts::FRAC_1_PI;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Diffuse {
     /// Albedo.
-    pub reflectance: Rgb,
+    pub reflectance: Tex,
 }
 
 impl Default for Diffuse {
     fn default() -> Self {
         Self {
-            reflectance: Rgb::splat(0.5),
+            reflectance: Tex::value(0.5),
         }
     }
 }
 
+impl Diffuse {
+    /// A constant albedo.
+    pub fn new(reflectance: Rgb) -> Self {
+        Self {
+            reflectance: Tex::Const(reflectance),
+        }
+    }
+
+    /// Builds the BSDF from its scene parameters.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        Ok(Self {
+            reflectance: p.texture_or("reflectance", ColorKind::Reflectance, Rgb::splat(0.5))?,
+        })
+    }
+}
+
 impl BsdfModel for Diffuse {
-    fn flags(&self, _: &[Bsdf]) -> BsdfFlags {
+    fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::DIFFUSE_REFLECTION | BsdfFlags::FRONT_SIDE
     }
 
     #[inline]
     fn sample(
         &self,
-        _: &[Bsdf],
+        m: &Materials,
         _: &BsdfContext,
-        _: &SurfaceInteraction,
+        si: &SurfaceInteraction,
         wo: Vec3,
         _: f32,
         u2: Vec2,
@@ -59,20 +78,27 @@ impl BsdfModel for Diffuse {
             pdf,
             eta: 1.0,
             sampled: BsdfFlags::DIFFUSE_REFLECTION,
-            weight: self.reflectance,
+            weight: self.reflectance.eval(m, si),
         })
     }
 
     #[inline]
-    fn eval(&self, _: &[Bsdf], _: &BsdfContext, _: &SurfaceInteraction, wo: Vec3, wi: Vec3) -> Rgb {
+    fn eval(
+        &self,
+        m: &Materials,
+        _: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
-        self.reflectance * (FRAC_1_PI * wi.z)
+        self.reflectance.eval(m, si) * (FRAC_1_PI * wi.z)
     }
 
     #[inline]
-    fn pdf(&self, _: &[Bsdf], _: &BsdfContext, _: &SurfaceInteraction, wo: Vec3, wi: Vec3) -> f32 {
+    fn pdf(&self, _: &Materials, _: &BsdfContext, _: &SurfaceInteraction, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
@@ -83,29 +109,26 @@ impl BsdfModel for Diffuse {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bsdf::Bsdf;
     use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity};
 
     #[test]
     fn chi2_diffuse() {
-        let table = [Bsdf::Diffuse(Diffuse {
-            reflectance: Rgb::new(0.2, 0.5, 0.9),
-        })];
+        let table = Materials::with_bsdfs(vec![Bsdf::Diffuse(Diffuse::new(Rgb::new(0.2, 0.5, 0.9)))]);
         check_bsdf(&table, 0, Vec3::new(0.3, 0.2, 0.9).normalize());
         check_bsdf(&table, 0, Vec3::new(-0.9, 0.1, 0.05).normalize());
     }
 
     #[test]
     fn diffuse_energy_and_reciprocity() {
-        let table = [Bsdf::Diffuse(Diffuse {
-            reflectance: Rgb::ONE,
-        })];
+        let table = Materials::with_bsdfs(vec![Bsdf::Diffuse(Diffuse::new(Rgb::ONE))]);
         let a = albedo(&table, 0, Vec3::new(0.1, 0.2, 0.8).normalize());
         assert!(
             (a - Rgb::ONE).abs().max_element() < 1e-6,
             "white diffuse reflects everything: {a}"
         );
         check_reciprocity(&table, 0);
-        let b = table[0];
+        let b = table.bsdfs[0];
         let si = crate::bsdf::tests::flat_si();
         let ctx = BsdfContext::default();
         assert_eq!(

@@ -15,9 +15,10 @@
 //! - One-sided models are black when `wo` or `wi` is below the surface;
 //!   `twosided` makes them work on both sides.
 //!
-//! Composite BSDFs (`twosided`, later `mix`, `mask`, `bump`) refer to
-//! their children by index in the scene's BSDF table, so each method takes
-//! that table.
+//! Composite BSDFs (`twosided`, `blendbsdf`, `mask`, `bumpmap`, ...) refer
+//! to their children by index in the scene's BSDF table, and texturable
+//! parameters to textures by index, so each method takes the scene's
+//! [`Materials`].
 
 mod diffuse;
 mod twosided;
@@ -26,6 +27,7 @@ pub use diffuse::Diffuse;
 pub use twosided::TwoSided;
 
 use crate::interaction::SurfaceInteraction;
+use crate::material::Materials;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
 
@@ -115,11 +117,11 @@ pub struct BsdfSample {
 /// The contract of every BSDF.
 pub trait BsdfModel {
     /// Lobes this BSDF has.
-    fn flags(&self, table: &[Bsdf]) -> BsdfFlags;
+    fn flags(&self, m: &Materials) -> BsdfFlags;
     /// Samples `wi` given `wo`; `u1` picks a lobe, `u2` the direction.
     fn sample(
         &self,
-        table: &[Bsdf],
+        m: &Materials,
         ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
@@ -129,7 +131,7 @@ pub trait BsdfModel {
     /// f · |cos θi| for the smooth lobes (delta lobes give 0).
     fn eval(
         &self,
-        table: &[Bsdf],
+        m: &Materials,
         ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
@@ -138,7 +140,7 @@ pub trait BsdfModel {
     /// Density with which [`BsdfModel::sample`] picks `wi` (smooth lobes).
     fn pdf(
         &self,
-        table: &[Bsdf],
+        m: &Materials,
         ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
@@ -166,42 +168,42 @@ macro_rules! dispatch {
 
 impl BsdfModel for Bsdf {
     #[inline]
-    fn flags(&self, table: &[Bsdf]) -> BsdfFlags {
-        dispatch!(self, b => b.flags(table))
+    fn flags(&self, m: &Materials) -> BsdfFlags {
+        dispatch!(self, b => b.flags(m))
     }
     #[inline]
     fn sample(
         &self,
-        table: &[Bsdf],
+        m: &Materials,
         ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
         u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample> {
-        dispatch!(self, b => b.sample(table, ctx, si, wo, u1, u2))
+        dispatch!(self, b => b.sample(m, ctx, si, wo, u1, u2))
     }
     #[inline]
     fn eval(
         &self,
-        table: &[Bsdf],
+        m: &Materials,
         ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
         wi: Vec3,
     ) -> Rgb {
-        dispatch!(self, b => b.eval(table, ctx, si, wo, wi))
+        dispatch!(self, b => b.eval(m, ctx, si, wo, wi))
     }
     #[inline]
     fn pdf(
         &self,
-        table: &[Bsdf],
+        m: &Materials,
         ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
         wi: Vec3,
     ) -> f32 {
-        dispatch!(self, b => b.pdf(table, ctx, si, wo, wi))
+        dispatch!(self, b => b.pdf(m, ctx, si, wo, wi))
     }
 }
 
@@ -228,16 +230,16 @@ pub(crate) mod tests {
         }
     }
 
-    /// Chi-square test of `table[id]`'s sampling against its pdf for
+    /// Chi-square test of `m.bsdfs[id]`'s sampling against its pdf for
     /// `wo`, plus consistency of sample weights with eval/pdf.
-    pub(crate) fn check_bsdf(table: &[Bsdf], id: usize, wo: Vec3) {
-        let (b, si, ctx) = (table[id], flat_si(), BsdfContext::default());
+    pub(crate) fn check_bsdf(m: &Materials, id: usize, wo: Vec3) {
+        let (b, si, ctx) = (m.bsdfs[id], flat_si(), BsdfContext::default());
         chi2_directions(
             &Chi2Config::default(),
             |r: &mut Pcg32| {
                 let u1 = r.next_f32();
-                let s = b.sample(table, &ctx, &si, wo, u1, r.next_2d())?;
-                let expected = b.eval(table, &ctx, &si, wo, s.wi) / s.pdf;
+                let s = b.sample(m, &ctx, &si, wo, u1, r.next_2d())?;
+                let expected = b.eval(m, &ctx, &si, wo, s.wi) / s.pdf;
                 assert!(
                     (expected - s.weight).abs().max_element()
                         < 1e-3 * expected.max_element().max(1.0),
@@ -247,20 +249,20 @@ pub(crate) mod tests {
                 );
                 Some((s.wi, s.pdf))
             },
-            |wi| b.pdf(table, &ctx, &si, wo, wi),
+            |wi| b.pdf(m, &ctx, &si, wo, wi),
         )
         .unwrap();
     }
 
     /// Helmholtz reciprocity f(wo, wi)/|cos wi| = f(wi, wo)/|cos wo|.
-    pub(crate) fn check_reciprocity(table: &[Bsdf], id: usize) {
-        let (b, si, ctx) = (table[id], flat_si(), BsdfContext::default());
+    pub(crate) fn check_reciprocity(m: &Materials, id: usize) {
+        let (b, si, ctx) = (m.bsdfs[id], flat_si(), BsdfContext::default());
         let mut rng = Pcg32::new(5, 5);
         for _ in 0..1000 {
             let wo = crate::sampling::square_to_uniform_sphere(rng.next_2d());
             let wi = crate::sampling::square_to_uniform_sphere(rng.next_2d());
-            let f1 = b.eval(table, &ctx, &si, wo, wi) / wi.z.abs();
-            let f2 = b.eval(table, &ctx, &si, wi, wo) / wo.z.abs();
+            let f1 = b.eval(m, &ctx, &si, wo, wi) / wi.z.abs();
+            let f2 = b.eval(m, &ctx, &si, wi, wo) / wo.z.abs();
             assert!(
                 (f1 - f2).abs().max_element() < 1e-3 * f1.max_element().max(1.0),
                 "{f1} vs {f2}"
@@ -269,14 +271,14 @@ pub(crate) mod tests {
     }
 
     /// Albedo (∫ f cos dωi) estimated by sampling, for energy checks.
-    pub(crate) fn albedo(table: &[Bsdf], id: usize, wo: Vec3) -> Rgb {
-        let (b, si, ctx) = (table[id], flat_si(), BsdfContext::default());
+    pub(crate) fn albedo(m: &Materials, id: usize, wo: Vec3) -> Rgb {
+        let (b, si, ctx) = (m.bsdfs[id], flat_si(), BsdfContext::default());
         let mut rng = Pcg32::new(9, 9);
         let n = 100_000;
         let sum: glam::DVec3 = (0..n)
             .filter_map(|_| {
                 let u1 = rng.next_f32();
-                b.sample(table, &ctx, &si, wo, u1, rng.next_2d())
+                b.sample(m, &ctx, &si, wo, u1, rng.next_2d())
             })
             .map(|s| s.weight.as_dvec3())
             .sum();

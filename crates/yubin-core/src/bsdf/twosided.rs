@@ -14,6 +14,8 @@
 
 use super::{Bsdf, BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
 use crate::interaction::SurfaceInteraction;
+use crate::material::Materials;
+use crate::params::{ParamError, Params};
 use crate::Rgb;
 use glam::{Vec2, Vec3};
 
@@ -32,6 +34,23 @@ fn mirror(w: Vec3) -> Vec3 {
 }
 
 impl TwoSided {
+    /// Builds the BSDF from its nested BSDFs (one for both sides, or front
+    /// and back).
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let kids = p.bsdfs()?;
+        if kids.iter().any(|(_, b)| matches!(b, Bsdf::TwoSided(_))) {
+            return Err(p.error("a twosided BSDF cannot contain another twosided BSDF"));
+        }
+        match kids.as_slice() {
+            [(f, _)] => Ok(Self { front: *f, back: *f }),
+            [(f, _), (b, _)] => Ok(Self { front: *f, back: *b }),
+            _ => Err(p.error(&format!(
+                "twosided needs one or two nested BSDFs, found {}",
+                kids.len()
+            ))),
+        }
+    }
+
     fn side(&self, wo: Vec3) -> (u32, bool) {
         if wo.z >= 0.0 {
             (self.front, false)
@@ -43,24 +62,24 @@ impl TwoSided {
     /// The BSDF for `wo`'s side and the directions as that BSDF sees them
     /// (mirrored to its front when `wo` is below the surface).
     #[inline]
-    fn facing<'t>(&self, table: &'t [Bsdf], wo: Vec3, wi: Vec3) -> (&'t Bsdf, Vec3, Vec3) {
+    fn facing<'t>(&self, m: &'t Materials, wo: Vec3, wi: Vec3) -> (&'t Bsdf, Vec3, Vec3) {
         match self.side(wo) {
-            (id, false) => (&table[id as usize], wo, wi),
-            (id, true) => (&table[id as usize], mirror(wo), mirror(wi)),
+            (id, false) => (&m.bsdfs[id as usize], wo, wi),
+            (id, true) => (&m.bsdfs[id as usize], mirror(wo), mirror(wi)),
         }
     }
 }
 
 impl BsdfModel for TwoSided {
-    fn flags(&self, table: &[Bsdf]) -> BsdfFlags {
-        let f = table[self.front as usize].flags(table) | table[self.back as usize].flags(table);
+    fn flags(&self, m: &Materials) -> BsdfFlags {
+        let f = m.bsdfs[self.front as usize].flags(m) | m.bsdfs[self.back as usize].flags(m);
         f | BsdfFlags::FRONT_SIDE | BsdfFlags::BACK_SIDE
     }
 
     #[inline]
     fn sample(
         &self,
-        table: &[Bsdf],
+        m: &Materials,
         ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
@@ -68,42 +87,42 @@ impl BsdfModel for TwoSided {
         u2: Vec2,
     ) -> Option<BsdfSample> {
         let (id, back) = self.side(wo);
-        let b = &table[id as usize];
+        let b = &m.bsdfs[id as usize];
         if back {
-            b.sample(table, ctx, si, mirror(wo), u1, u2)
+            b.sample(m, ctx, si, mirror(wo), u1, u2)
                 .map(|s| BsdfSample {
                     wi: mirror(s.wi),
                     ..s
                 })
         } else {
-            b.sample(table, ctx, si, wo, u1, u2)
+            b.sample(m, ctx, si, wo, u1, u2)
         }
     }
 
     #[inline]
     fn eval(
         &self,
-        table: &[Bsdf],
+        m: &Materials,
         ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
         wi: Vec3,
     ) -> Rgb {
-        let (b, wo, wi) = self.facing(table, wo, wi);
-        b.eval(table, ctx, si, wo, wi)
+        let (b, wo, wi) = self.facing(m, wo, wi);
+        b.eval(m, ctx, si, wo, wi)
     }
 
     #[inline]
     fn pdf(
         &self,
-        table: &[Bsdf],
+        m: &Materials,
         ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
         wi: Vec3,
     ) -> f32 {
-        let (b, wo, wi) = self.facing(table, wo, wi);
-        b.pdf(table, ctx, si, wo, wi)
+        let (b, wo, wi) = self.facing(m, wo, wi);
+        b.pdf(m, ctx, si, wo, wi)
     }
 }
 
@@ -113,16 +132,12 @@ mod tests {
     use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity};
     use crate::bsdf::Diffuse;
 
-    fn table() -> Vec<Bsdf> {
-        vec![
-            Bsdf::Diffuse(Diffuse {
-                reflectance: Rgb::new(0.8, 0.4, 0.2),
-            }),
-            Bsdf::Diffuse(Diffuse {
-                reflectance: Rgb::new(0.1, 0.9, 0.3),
-            }),
+    fn table() -> Materials {
+        Materials::with_bsdfs(vec![
+            Bsdf::Diffuse(Diffuse::new(Rgb::new(0.8, 0.4, 0.2))),
+            Bsdf::Diffuse(Diffuse::new(Rgb::new(0.1, 0.9, 0.3))),
             Bsdf::TwoSided(TwoSided { front: 0, back: 1 }),
-        ]
+        ])
     }
 
     #[test]

@@ -57,7 +57,7 @@ impl Integrator for DirectIntegrator {
         let bsdf = scene.bsdf_of(si.shape);
         let wo = si.to_local(si.wo);
         let (ne, nb) = (self.emitter_samples as f32, self.bsdf_samples as f32);
-        if bsdf.flags(&scene.bsdfs).intersects(BsdfFlags::SMOOTH) && self.emitter_samples > 0 {
+        if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) && self.emitter_samples > 0 {
             for _ in 0..self.emitter_samples {
                 // The ratio ne/nb turns the count-weighted power heuristic
                 // into the one-sample form sample_light computes.
@@ -68,7 +68,7 @@ impl Integrator for DirectIntegrator {
         for _ in 0..self.bsdf_samples {
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
-            let Some(bs) = bsdf.sample(&scene.bsdfs, &ctx, &si, wo, u1, u2) else {
+            let Some(bs) = bsdf.sample(&scene.materials, &ctx, &si, wo, u1, u2) else {
                 continue;
             };
             let delta = bs.sampled.intersects(BsdfFlags::DELTA);

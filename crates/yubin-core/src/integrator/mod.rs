@@ -131,7 +131,7 @@ pub(crate) fn sample_light(
     };
     let ctx = BsdfContext::default();
     let wi_local = si.to_local(ls.wi);
-    let f = bsdf.eval(&scene.bsdfs, &ctx, si, wo_local, wi_local);
+    let f = bsdf.eval(&scene.materials, &ctx, si, wo_local, wi_local);
     if f == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -147,7 +147,7 @@ pub(crate) fn sample_light(
     let w = if ls.is_delta {
         1.0
     } else {
-        let bsdf_pdf = bsdf.pdf(&scene.bsdfs, &ctx, si, wo_local, wi_local);
+        let bsdf_pdf = bsdf.pdf(&scene.materials, &ctx, si, wo_local, wi_local);
         power_heuristic(light_pdf * light_count_ratio, bsdf_pdf)
     };
     f * ls.radiance * (w / light_pdf)

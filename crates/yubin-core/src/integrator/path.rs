@@ -68,12 +68,12 @@ impl Integrator for PathIntegrator {
             }
             let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
-            if bsdf.flags(&scene.bsdfs).intersects(BsdfFlags::SMOOTH) {
+            if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) {
                 l += beta * sample_light(scene, &si, bsdf, wo, sampler, 1.0);
             }
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
-            let Some(bs) = bsdf.sample(&scene.bsdfs, &ctx, &si, wo, u1, u2) else {
+            let Some(bs) = bsdf.sample(&scene.materials, &ctx, &si, wo, u1, u2) else {
                 break;
             };
             beta *= bs.weight;

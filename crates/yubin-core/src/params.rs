@@ -1,0 +1,159 @@
+//! The format-neutral parameter interface through which every plugin builds
+//! itself (the role of pbrt-v4's `ParameterDictionary` and Mitsuba 3's
+//! `Properties`).
+//!
+//! A scene front end implements [`Params`] for one object of its scene
+//! description: typed getters that mark what they read (so that a parameter
+//! nobody read can be reported), nested objects already built into the
+//! scene's tables (BSDFs and textures come back as indices), image files
+//! loaded into the scene, and errors that carry the object's or the
+//! parameter's source location. Each plugin's `from_params` lives in its own
+//! file beside its parameter table:
+//!
+//! ```
+//! use yubin_core::params::{ColorKind, ParamError, Params};
+//! use yubin_core::texture::Tex;
+//! use yubin_core::Rgb;
+//!
+//! fn reflectance(p: &mut dyn Params) -> Result<Tex, ParamError> {
+//!     Ok(p.texture("reflectance", ColorKind::Reflectance)?
+//!         .unwrap_or(Tex::Const(Rgb::splat(0.5))))
+//! }
+//! ```
+//!
+//! The core itself never reads a file: [`Params::image`] asks the front end
+//! to load one and returns its index in [`crate::material::Materials::images`].
+
+use crate::texture::Tex;
+use crate::Rgb;
+use glam::{DMat4, Vec3};
+use std::fmt;
+
+/// A problem with a plugin's parameters. The message already names where
+/// (`scene.xml:42: ...`): the front end that made it knows the location.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ParamError(pub String);
+
+impl fmt::Display for ParamError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ParamError {}
+
+/// How a colour parameter given as a spectrum becomes RGB (Mitsuba 3's RGB
+/// variants convert differently by role).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColorKind {
+    /// A reflectance or transmittance: spectra are weighted by D65 and
+    /// clamped to [0, 1]; values must not be negative.
+    Reflectance,
+    /// An unbounded, non-emissive quantity (index of refraction, absorption
+    /// coefficient): a constant spectrum is that value in every channel.
+    Unbounded,
+    /// Emitted radiance or intensity: a constant spectrum is the sRGB colour
+    /// of illuminant E.
+    Illuminant,
+}
+
+/// One object of a scene description, as a plugin sees it. Getters return
+/// `Ok(None)` when the parameter is absent and an error naming its line when
+/// it has the wrong type; whatever they return is marked as read.
+pub trait Params {
+    /// How messages name the object: `bsdf "roughconductor"`.
+    fn describe(&self) -> String;
+    /// An error whose message is `msg` prefixed by the location of parameter
+    /// `name` (of the object itself when `name` is `None` or absent).
+    fn error_at(&self, name: Option<&str>, msg: &str) -> ParamError;
+    /// Whether a parameter or named nested object `name` exists (does not
+    /// mark it read).
+    fn has(&self, name: &str) -> bool;
+    /// A float (an integer is accepted).
+    fn float(&mut self, name: &str) -> Result<Option<f32>, ParamError>;
+    /// An integer.
+    fn integer(&mut self, name: &str) -> Result<Option<i64>, ParamError>;
+    /// A boolean.
+    fn boolean(&mut self, name: &str) -> Result<Option<bool>, ParamError>;
+    /// A string.
+    fn string(&mut self, name: &str) -> Result<Option<String>, ParamError>;
+    /// A point (a vector is accepted).
+    fn point(&mut self, name: &str) -> Result<Option<Vec3>, ParamError>;
+    /// A vector (a point is accepted).
+    fn vector(&mut self, name: &str) -> Result<Option<Vec3>, ParamError>;
+    /// A transform, composed in f64.
+    fn transform(&mut self, name: &str) -> Result<Option<DMat4>, ParamError>;
+    /// A constant colour (rgb, spectrum, or a float for grey); a texture here
+    /// is an error.
+    fn color(&mut self, name: &str, kind: ColorKind) -> Result<Option<Rgb>, ParamError>;
+    /// A texturable parameter: a constant colour or float, or a nested or
+    /// referenced texture (built into the scene's texture table).
+    fn texture(&mut self, name: &str, kind: ColorKind) -> Result<Option<Tex>, ParamError>;
+    /// Every nested BSDF, built into the scene's BSDF table, in the order
+    /// written: its index and (a copy of) what was built.
+    fn bsdfs(&mut self) -> Result<Vec<(u32, crate::bsdf::Bsdf)>, ParamError>;
+    /// Loads the image file named by string parameter `name` into the
+    /// scene's image table (each file once) and returns its index.
+    fn image(&mut self, name: &str) -> Result<Option<u32>, ParamError>;
+    /// Marks parameter `name` as read without using it.
+    fn mark_ignored(&mut self, name: &str);
+    /// A warning for the user, located at parameter `name` (or the object).
+    fn warn(&mut self, name: Option<&str>, msg: &str);
+
+    /// An error at the object's declaration: `bsdf "x": msg`.
+    fn error(&self, msg: &str) -> ParamError {
+        self.error_at(None, &format!("{}: {msg}", self.describe()))
+    }
+    /// An error at parameter `name`: `parameter "name" of bsdf "x": msg`.
+    fn param_error(&self, name: &str, msg: &str) -> ParamError {
+        self.error_at(
+            Some(name),
+            &format!("parameter \"{name}\" of {}: {msg}", self.describe()),
+        )
+    }
+    /// [`Params::float`] with a default.
+    fn float_or(&mut self, name: &str, default: f32) -> Result<f32, ParamError> {
+        Ok(self.float(name)?.unwrap_or(default))
+    }
+    /// [`Params::integer`] with a default.
+    fn integer_or(&mut self, name: &str, default: i64) -> Result<i64, ParamError> {
+        Ok(self.integer(name)?.unwrap_or(default))
+    }
+    /// [`Params::boolean`] with a default.
+    fn boolean_or(&mut self, name: &str, default: bool) -> Result<bool, ParamError> {
+        Ok(self.boolean(name)?.unwrap_or(default))
+    }
+    /// [`Params::string`] with a default.
+    fn string_or(&mut self, name: &str, default: &str) -> Result<String, ParamError> {
+        Ok(self.string(name)?.unwrap_or_else(|| default.to_string()))
+    }
+    /// [`Params::color`] with a default.
+    fn color_or(&mut self, name: &str, kind: ColorKind, default: Rgb) -> Result<Rgb, ParamError> {
+        Ok(self.color(name, kind)?.unwrap_or(default))
+    }
+    /// [`Params::texture`] with a constant default.
+    fn texture_or(&mut self, name: &str, kind: ColorKind, default: Rgb) -> Result<Tex, ParamError> {
+        Ok(self.texture(name, kind)?.unwrap_or(Tex::Const(default)))
+    }
+    /// A float that must be positive (NaN is rejected too).
+    fn positive_float_or(&mut self, name: &str, default: f32) -> Result<f32, ParamError> {
+        let v = self.float_or(name, default)?;
+        if v > 0.0 && v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.param_error(name, &format!("must be positive, not {v}")))
+        }
+    }
+    /// One of `choices` (the first is the default).
+    fn choice(&mut self, name: &str, choices: &[&str]) -> Result<usize, ParamError> {
+        let Some(v) = self.string(name)? else {
+            return Ok(0);
+        };
+        choices.iter().position(|c| *c == v).ok_or_else(|| {
+            self.param_error(
+                name,
+                &format!("must be one of {}, not \"{v}\"", choices.join(", ")),
+            )
+        })
+    }
+}
