@@ -10,16 +10,16 @@
 
 use crate::accel::{Bvh, PrimCost};
 use crate::bsdf::{Bsdf, Diffuse};
-use crate::material::Materials;
-use crate::texture::{TexImage, Texture};
 use crate::camera::{Camera, FovAxis, Perspective};
 use crate::film::Film;
 use crate::filter::Filter;
 use crate::interaction::SurfaceInteraction;
 use crate::light::{AreaLight, Emitter, EmitterContext};
+use crate::material::Materials;
 use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
+use crate::texture::{TexImage, Texture};
 use crate::Rgb;
 use rayon::prelude::*;
 

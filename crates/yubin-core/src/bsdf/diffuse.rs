@@ -15,8 +15,8 @@
 use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
-use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use crate::params::{ColorKind, ParamError, Params};
+use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use crate::texture::Tex;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
@@ -98,7 +98,14 @@ impl BsdfModel for Diffuse {
     }
 
     #[inline]
-    fn pdf(&self, _: &Materials, _: &BsdfContext, _: &SurfaceInteraction, wo: Vec3, wi: Vec3) -> f32 {
+    fn pdf(
+        &self,
+        _: &Materials,
+        _: &BsdfContext,
+        _: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
@@ -107,14 +114,15 @@ impl BsdfModel for Diffuse {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+    use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity, Variant};
     use crate::bsdf::Bsdf;
-    use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity};
 
     #[test]
     fn chi2_diffuse() {
-        let table = Materials::with_bsdfs(vec![Bsdf::Diffuse(Diffuse::new(Rgb::new(0.2, 0.5, 0.9)))]);
+        let table =
+            Materials::with_bsdfs(vec![Bsdf::Diffuse(Diffuse::new(Rgb::new(0.2, 0.5, 0.9)))]);
         check_bsdf(&table, 0, Vec3::new(0.3, 0.2, 0.9).normalize());
         check_bsdf(&table, 0, Vec3::new(-0.9, 0.1, 0.05).normalize());
     }
@@ -136,5 +144,38 @@ mod tests {
             Rgb::ZERO,
             "one-sided"
         );
+    }
+
+    /// Configurations for the table-driven tests in `bsdf/mod.rs`.
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        let textured = {
+            let mut v = Variant::last(
+                "diffuse (checkerboard texture)",
+                vec![Bsdf::Diffuse(Diffuse {
+                    reflectance: Tex::Texture(0),
+                })],
+            );
+            v.m.textures.push(crate::texture::Texture::Checkerboard(
+                crate::texture::Checkerboard {
+                    color0: Tex::Const(Rgb::new(0.9, 0.5, 0.1)),
+                    color1: Tex::value(0.2),
+                    to_uv: glam::Affine2::IDENTITY,
+                },
+            ));
+            v
+        };
+        let mut white = Variant::last(
+            "diffuse (white)",
+            vec![Bsdf::Diffuse(Diffuse::new(Rgb::ONE))],
+        );
+        white.lossless = true;
+        vec![
+            Variant::last(
+                "diffuse",
+                vec![Bsdf::Diffuse(Diffuse::new(Rgb::new(0.2, 0.5, 0.9)))],
+            ),
+            white,
+            textured,
+        ]
     }
 }

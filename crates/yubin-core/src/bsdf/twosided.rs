@@ -42,8 +42,14 @@ impl TwoSided {
             return Err(p.error("a twosided BSDF cannot contain another twosided BSDF"));
         }
         match kids.as_slice() {
-            [(f, _)] => Ok(Self { front: *f, back: *f }),
-            [(f, _), (b, _)] => Ok(Self { front: *f, back: *b }),
+            [(f, _)] => Ok(Self {
+                front: *f,
+                back: *f,
+            }),
+            [(f, _), (b, _)] => Ok(Self {
+                front: *f,
+                back: *b,
+            }),
             _ => Err(p.error(&format!(
                 "twosided needs one or two nested BSDFs, found {}",
                 kids.len()
@@ -127,9 +133,9 @@ impl BsdfModel for TwoSided {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
-    use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity};
+    use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity, Variant};
     use crate::bsdf::Diffuse;
 
     fn table() -> Materials {
@@ -156,5 +162,27 @@ mod tests {
             (a - Rgb::new(0.1, 0.9, 0.3)).abs().max_element() < 1e-5,
             "{a}"
         );
+    }
+
+    /// Configurations for the table-driven tests in `bsdf/mod.rs`.
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        let mut white = Variant::last(
+            "twosided (white diffuse)",
+            vec![
+                Bsdf::Diffuse(Diffuse::new(Rgb::ONE)),
+                Bsdf::TwoSided(TwoSided { front: 0, back: 0 }),
+            ],
+        );
+        white.lossless = true;
+        let t = table();
+        vec![
+            Variant {
+                name: "twosided (two diffuse)".into(),
+                m: t,
+                id: 2,
+                lossless: false,
+            },
+            white,
+        ]
     }
 }

@@ -193,8 +193,8 @@ impl TextureModel for Bitmap {
         }
         let ([t00, t10, t01, t11], f) = self.corners(img, uv);
         let [v00, v10, v01, v11] = [t00, t10, t01, t11].map(|t| self.scalar(m, t));
-        let value = (v00 * (1.0 - f.x) + v10 * f.x) * (1.0 - f.y)
-            + (v01 * (1.0 - f.x) + v11 * f.x) * f.y;
+        let value =
+            (v00 * (1.0 - f.x) + v10 * f.x) * (1.0 - f.y) + (v01 * (1.0 - f.x) + v11 * f.x) * f.y;
         if self.filter == FilterType::Nearest {
             return (value, Vec2::ZERO);
         }
@@ -282,8 +282,13 @@ mod tests {
         let uv = Vec2::new(0.33, 0.61);
         let (_, g) = b.eval_1_grad(&m, &at(uv));
         let h = 1e-3;
-        let du = (b.eval_1(&m, &at(uv + Vec2::X * h)) - b.eval_1(&m, &at(uv - Vec2::X * h))) / (2.0 * h);
-        let dv = (b.eval_1(&m, &at(uv + Vec2::Y * h)) - b.eval_1(&m, &at(uv - Vec2::Y * h))) / (2.0 * h);
-        assert!((g - Vec2::new(du, dv)).length() < 1e-2 * (1.0 + g.length()), "{g} vs {du}, {dv}");
+        let du =
+            (b.eval_1(&m, &at(uv + Vec2::X * h)) - b.eval_1(&m, &at(uv - Vec2::X * h))) / (2.0 * h);
+        let dv =
+            (b.eval_1(&m, &at(uv + Vec2::Y * h)) - b.eval_1(&m, &at(uv - Vec2::Y * h))) / (2.0 * h);
+        assert!(
+            (g - Vec2::new(du, dv)).length() < 1e-2 * (1.0 + g.length()),
+            "{g} vs {du}, {dv}"
+        );
     }
 }

@@ -34,9 +34,8 @@ pub struct TexImage {
 }
 
 /// The 256 sRGB-encoded byte values, decoded (IEC 61966-2-1).
-static SRGB_TO_LINEAR: LazyLock<[f32; 256]> = LazyLock::new(|| {
-    std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0))
-});
+static SRGB_TO_LINEAR: LazyLock<[f32; 256]> =
+    LazyLock::new(|| std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0)));
 
 /// The sRGB transfer function, inverted.
 pub fn srgb_to_linear(v: f32) -> f32 {
