@@ -16,19 +16,22 @@
 //! render with the Owen-scrambled Sobol sampler, with a warning.
 
 use crate::desc::{Category, Object, SceneDesc, Spectrum, Value};
-use crate::error::SceneError;
+use crate::error::{Location, SceneError};
+use crate::image_io::read_texture;
 use crate::mesh::{obj::load_obj, ply::load_ply, MeshData};
+use crate::params::{to_param, ObjParams};
 use glam::{DMat4, Vec3};
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::rc::Rc;
-use yubin_core::bsdf::{Bsdf, Diffuse, TwoSided};
+use yubin_core::bsdf::Bsdf;
 use yubin_core::camera::{Camera, FovAxis, Perspective};
 use yubin_core::film::Film;
 use yubin_core::filter::Filter;
 use yubin_core::integrator::{DirectIntegrator, Integrator, MomentIntegrator, PathIntegrator};
 use yubin_core::light::{ConstantLight, DirectionalLight, Emitter, PointLight};
 use yubin_core::math::Transform;
+use yubin_core::params::{ColorKind, ParamError, Params};
 use yubin_core::sampler::{Independent, Sampler, Sobol};
 use yubin_core::shape::{
     cube::cube_mesh_with, Cylinder, Disk, MeshShape, Rectangle, Shape, Sphere, TriangleMesh,
@@ -72,6 +75,8 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         desc,
         sb: SceneBuilder::new(),
         bsdfs: HashMap::new(),
+        textures: HashMap::new(),
+        images: HashMap::new(),
         groups: HashMap::new(),
         warnings: Vec::new(),
     };
@@ -115,12 +120,29 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
     })
 }
 
-struct Builder<'a> {
+/// The builder's state: the scene under construction and what has been
+/// built of the description (shared objects are built once).
+pub(crate) struct Builder<'a> {
     desc: &'a SceneDesc,
     sb: SceneBuilder,
     bsdfs: HashMap<*const Object, u32>,
+    textures: HashMap<*const Object, u32>,
+    images: HashMap<PathBuf, u32>,
     groups: HashMap<*const Object, u32>,
-    warnings: Vec<String>,
+    pub(crate) warnings: Vec<String>,
+}
+
+/// The constructor of `obj`'s plugin type in a family's plugin table; an
+/// unknown type is an error listing the known ones.
+fn plugin<T: Copy>(obj: &Object, table: &[(&str, T)]) -> Result<T, SceneError> {
+    table
+        .iter()
+        .find(|(name, _)| *name == obj.plugin_type)
+        .map(|(_, build)| *build)
+        .ok_or_else(|| {
+            let known: Vec<&str> = table.iter().map(|(name, _)| *name).collect();
+            unknown_type(obj, &known.join(", "))
+        })
 }
 
 fn unknown_type(obj: &Object, known: &str) -> SceneError {
@@ -382,48 +404,71 @@ impl Builder<'_> {
         Ok((sampler, seed))
     }
 
-    fn bsdf(&mut self, obj: &Rc<Object>) -> Result<u32, SceneError> {
+    /// Builds a BSDF (once per shared object); returns its index.
+    pub(crate) fn bsdf(&mut self, obj: &Rc<Object>) -> Result<u32, SceneError> {
         let key = Rc::as_ptr(obj);
         if let Some(&id) = self.bsdfs.get(&key) {
             return Ok(id);
         }
-        let bsdf = match obj.plugin_type.as_str() {
-            "diffuse" => Bsdf::Diffuse(Diffuse::new(color(
-                obj,
-                "reflectance",
-                Some(Rgb::splat(0.5)),
-                true,
-            )?)),
-            "twosided" => {
-                let kids: Vec<Rc<Object>> = obj
-                    .children_of(Category::Bsdf)
-                    .map(|c| c.object.clone())
-                    .collect();
-                if let Some(nested) = kids.iter().find(|k| k.plugin_type == "twosided") {
-                    return Err(
-                        nested.error("a twosided BSDF cannot contain another twosided BSDF")
-                    );
-                }
-                let (front, back) = match kids.as_slice() {
-                    [f] => {
-                        let f = self.bsdf(f)?;
-                        (f, f)
-                    }
-                    [f, b] => (self.bsdf(f)?, self.bsdf(b)?),
-                    _ => {
-                        return Err(obj.error(format!(
-                            "twosided needs one or two nested BSDFs, found {}",
-                            kids.len()
-                        )))
-                    }
-                };
-                Bsdf::TwoSided(TwoSided { front, back })
-            }
-            _ => return Err(unknown_type(obj, "diffuse, twosided")),
-        };
+        let build = plugin(obj, yubin_core::bsdf::PLUGINS)?;
+        let bsdf = build(&mut ObjParams { obj, b: self })?;
         let id = self.sb.add_bsdf(bsdf);
         self.bsdfs.insert(key, id);
         Ok(id)
+    }
+
+    /// The BSDF built at index `id`.
+    pub(crate) fn built_bsdf(&self, id: u32) -> Bsdf {
+        *self.sb.bsdf(id).expect("an index the builder returned")
+    }
+
+    /// Builds a texture (once per shared object); returns its index.
+    pub(crate) fn texture(&mut self, obj: &Rc<Object>) -> Result<u32, ParamError> {
+        let key = Rc::as_ptr(obj);
+        if let Some(&id) = self.textures.get(&key) {
+            return Ok(id);
+        }
+        let build = plugin(obj, yubin_core::texture::PLUGINS).map_err(to_param)?;
+        let texture = build(&mut ObjParams { obj, b: self })?;
+        let id = self.sb.add_texture(texture);
+        self.textures.insert(key, id);
+        Ok(id)
+    }
+
+    /// Loads an image file for a texture or emitter (once per file).
+    pub(crate) fn image(&mut self, name: &str, loc: &Location) -> Result<u32, SceneError> {
+        let path = self.desc.resolve_file(name, loc)?;
+        let key = path.canonicalize().unwrap_or_else(|_| path.clone());
+        if let Some(&id) = self.images.get(&key) {
+            return Ok(id);
+        }
+        let image = read_texture(&path)?;
+        let id = self.sb.add_image(image);
+        self.images.insert(key, id);
+        Ok(id)
+    }
+
+    /// A `<spectrum type="...">` object as RGB for its role.
+    pub(crate) fn spectrum_object(
+        &mut self,
+        obj: &Object,
+        kind: ColorKind,
+    ) -> Result<Rgb, ParamError> {
+        let p = &mut ObjParams { obj, b: self };
+        match obj.plugin_type.as_str() {
+            "uniform" | "rawconstant" => {
+                let v = p.float_or("value", 1.0)?;
+                Ok(match (obj.plugin_type.as_str(), kind) {
+                    ("uniform", ColorKind::Illuminant) => {
+                        Rgb::new(1.204_88, 0.948_229, 0.909_267) * v
+                    }
+                    _ => Rgb::splat(v),
+                })
+            }
+            other => Err(p.error(&format!(
+                "spectrum type \"{other}\" is not supported yet (known: uniform, rawconstant)"
+            ))),
+        }
     }
 
     fn shape_bsdf(&mut self, obj: &Object) -> Result<Option<u32>, SceneError> {

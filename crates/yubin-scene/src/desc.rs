@@ -429,6 +429,12 @@ impl Object {
         Some(child)
     }
 
+    /// The nested object called `name`, without marking it used (to look
+    /// at its category before deciding how to read it).
+    pub fn find_named_child(&self, name: &str) -> Option<Rc<Object>> {
+        self.find_child(name).map(|c| c.object.clone())
+    }
+
     /// The only nested object of `category`, marked used; an error at the
     /// second one's line when there are several.
     pub fn single_child(&self, category: Category) -> Result<Option<&Child>, SceneError> {

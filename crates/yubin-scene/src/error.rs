@@ -53,6 +53,9 @@ pub enum SceneError {
         /// The reference that asked for it.
         from: Option<Location>,
     },
+    /// A plugin's parameter error; the message names the place.
+    #[error("{0}")]
+    Plugin(String),
     /// An I/O error on a file.
     // The I/O error is part of the message, not a separate cause, so that
     // printing the error chain doesn't say it twice.
@@ -88,5 +91,11 @@ impl SceneError {
             path: path.into(),
             msg: msg.into(),
         }
+    }
+}
+
+impl From<yubin_core::params::ParamError> for SceneError {
+    fn from(e: yubin_core::params::ParamError) -> Self {
+        SceneError::Plugin(e.0)
     }
 }

@@ -8,7 +8,7 @@
 //! |---|---|---|
 //! | OpenEXR | [`exr`], first valid layer, largest resolution level; channels `R`,`G`,`B` (+`A`), or `Y` (+`A`) | linear, f16/f32/u32 → f32 |
 //! | Radiance `.hdr` (RGBE) | [`image`] | linear |
-//! | PNG, JPEG (8 or 16 bit) | [`image`] | sRGB → linear unless [`ColorHandling::Raw`]; alpha is never converted |
+//! | PNG, JPEG (8 or 16 bit), BMP, TGA | [`image`] | sRGB → linear unless [`ColorHandling::Raw`]; alpha is never converted |
 //!
 //! EXR files are recognised by their magic number, everything else by
 //! content sniffing in the `image` crate. Grey images keep one channel,
@@ -33,7 +33,8 @@
 //!
 //! # Limitations
 //!
-//! BMP, TGA and TIFF are not enabled in the workspace's `image` features.
+//! TIFF is not enabled in the workspace's `image` features. Textures
+//! ([`read_texture`]) also read PFM and keep 8-bit data as bytes.
 //! EXR: only the data window is read (display-window offsets are ignored),
 //! subsampled channels and deep data are rejected, and only the main
 //! `R`,`G`,`B`(,`A`) or `Y` channels of the first layer are returned.
@@ -44,6 +45,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::SceneError;
+use yubin_core::texture::image::ImageData;
+use yubin_core::texture::TexImage;
 
 /// A `width` × `height` image with `channels` interleaved `f32` values per
 /// pixel, rows stored top row first.
@@ -129,6 +132,120 @@ pub fn read_image(path: &Path, color: ColorHandling) -> Result<Image, SceneError
     }
 }
 
+/// Reads an image file as a texture: 8-bit PNG and JPEG keep one byte per
+/// channel and 16-bit ones their encoded values (both decoded from sRGB
+/// per texel at lookup, unless the texture is `raw`); EXR, HDR and PFM are
+/// linear floats.
+pub fn read_texture(path: &Path) -> Result<TexImage, SceneError> {
+    let (img, data, encoded) = if has_exr_magic(path)? {
+        let img = read_exr(path)?;
+        let data = ImageData::F32(img.data.clone());
+        (img, data, false)
+    } else if has_pfm_magic(path)? {
+        let img = read_pfm(path)?;
+        (img.clone(), ImageData::F32(img.data), false)
+    } else {
+        let decoded = decode_with_image_crate(path)?;
+        let bytes = matches!(
+            decoded.color(),
+            image::ColorType::L8
+                | image::ColorType::La8
+                | image::ColorType::Rgb8
+                | image::ColorType::Rgba8
+        );
+        let img = dynamic_to_linear(&decoded, ColorHandling::Raw);
+        let is_float = matches!(
+            decoded.color(),
+            image::ColorType::Rgb32F | image::ColorType::Rgba32F
+        );
+        if bytes {
+            (img, ImageData::U8(decoded.into_bytes()), true)
+        } else {
+            let data = ImageData::F32(img.data.clone());
+            (img, data, !is_float)
+        }
+    };
+    TexImage::new(
+        img.width as u32,
+        img.height as u32,
+        img.channels as u32,
+        data,
+        encoded,
+    )
+    .ok_or_else(|| {
+        SceneError::file(
+            path,
+            format!(
+                "unusable texture image ({}x{}, {} channels)",
+                img.width, img.height, img.channels
+            ),
+        )
+    })
+}
+
+/// Whether the file starts like a Portable Float Map (`PF` or `Pf` and a
+/// line break).
+fn has_pfm_magic(path: &Path) -> Result<bool, SceneError> {
+    use std::io::Read;
+    let mut magic = [0u8; 3];
+    let mut file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
+    let n = file.read(&mut magic).map_err(|e| io_error(path, e))?;
+    Ok(n == 3 && (magic[..2] == *b"PF" || magic[..2] == *b"Pf") && magic[2].is_ascii_whitespace())
+}
+
+/// Reads a Portable Float Map: a text header (`PF` for RGB or `Pf` for
+/// grey, width and height, a scale whose sign gives the byte order), then
+/// 32-bit floats, bottom row first.
+fn read_pfm(path: &Path) -> Result<Image, SceneError> {
+    let bytes = std::fs::read(path).map_err(|e| io_error(path, e))?;
+    let bad = |msg: &str| SceneError::file(path, format!("invalid PFM file: {msg}"));
+    // The header is three whitespace-separated tokens after the magic.
+    let mut tokens = Vec::new();
+    let mut pos = 0;
+    while tokens.len() < 4 {
+        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        let start = pos;
+        while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        if start == pos {
+            return Err(bad("truncated header"));
+        }
+        tokens.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
+    }
+    pos += 1; // the single whitespace byte ending the header
+    let channels = match tokens[0].as_str() {
+        "PF" => 3,
+        "Pf" => 1,
+        _ => return Err(bad("unknown magic")),
+    };
+    let parse = |t: &str| t.parse::<usize>().ok().filter(|&v| v > 0);
+    let (Some(width), Some(height)) = (parse(&tokens[1]), parse(&tokens[2])) else {
+        return Err(bad("bad size"));
+    };
+    let scale: f32 = tokens[3].parse().map_err(|_| bad("bad scale"))?;
+    let count = width * height * channels;
+    let body = bytes
+        .get(pos..pos + 4 * count)
+        .ok_or_else(|| bad("truncated data"))?;
+    let mut image = Image::new(width, height, channels);
+    for (i, chunk) in body.chunks_exact(4).enumerate() {
+        let raw = [chunk[0], chunk[1], chunk[2], chunk[3]];
+        let v = if scale < 0.0 {
+            f32::from_le_bytes(raw)
+        } else {
+            f32::from_be_bytes(raw)
+        };
+        // Rows are stored bottom to top.
+        let (x, y, c) = ((i / channels) % width, (i / channels) / width, i % channels);
+        let index = image.index(x, height - 1 - y, c);
+        image.data[index] = v;
+    }
+    Ok(image)
+}
+
 /// Whether the file starts with the OpenEXR magic number.
 fn has_exr_magic(path: &Path) -> Result<bool, SceneError> {
     use std::io::Read;
@@ -180,6 +297,11 @@ fn read_exr(path: &Path) -> Result<Image, SceneError> {
 
 /// Reads PNG, JPEG or HDR through the `image` crate.
 fn read_with_image_crate(path: &Path, color: ColorHandling) -> Result<Image, SceneError> {
+    Ok(dynamic_to_linear(&decode_with_image_crate(path)?, color))
+}
+
+/// Decodes PNG, JPEG, HDR, BMP or TGA through the `image` crate.
+fn decode_with_image_crate(path: &Path) -> Result<image::DynamicImage, SceneError> {
     let reader = image::ImageReader::open(path)
         .map_err(|e| io_error(path, e))?
         .with_guessed_format()
@@ -187,13 +309,12 @@ fn read_with_image_crate(path: &Path, color: ColorHandling) -> Result<Image, Sce
     if reader.format().is_none() {
         return Err(SceneError::file(
             path,
-            "unsupported image format (supported: exr, hdr, png, jpg/jpeg)",
+            "unsupported image format (supported: exr, hdr, pfm, png, jpg/jpeg, bmp, tga)",
         ));
     }
-    let decoded = reader
+    reader
         .decode()
-        .map_err(|e| SceneError::file(path, format!("cannot decode image: {e}")))?;
-    Ok(dynamic_to_linear(&decoded, color))
+        .map_err(|e| SceneError::file(path, format!("cannot decode image: {e}")))
 }
 
 /// Converts a decoded image to `f32`, keeping its channel count and

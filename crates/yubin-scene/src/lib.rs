@@ -11,6 +11,7 @@ pub mod desc;
 pub mod error;
 pub mod image_io;
 pub mod mesh;
+mod params;
 pub mod xml;
 
 pub use build::{load_scene, load_scene_str, LoadedScene};

@@ -231,7 +231,7 @@ mod tests {
 
     fn materials(data: Vec<f32>, w: u32, h: u32, c: u32) -> Materials {
         Materials {
-            images: vec![TexImage::new(w, h, c, ImageData::F32(data)).unwrap()],
+            images: vec![TexImage::new(w, h, c, ImageData::F32(data), false).unwrap()],
             ..Materials::default()
         }
     }

@@ -1,6 +1,8 @@
 //! Texture images as the scene stores them: 8-bit images keep one byte per
-//! channel (a 4096² RGB map is 48 MiB, not 192 MiB as f32), float images
-//! (EXR, HDR, PFM) keep `f32`. Pixels are row-major, top row first.
+//! channel (a 4096² RGB map is 48 MiB, not 192 MiB as f32), others keep
+//! `f32`. Pixels are row-major, top row first. sRGB-encoded data is decoded
+//! per texel at lookup (unless a texture is `raw`), so bilinear filtering
+//! blends linear values.
 
 use glam::Vec4;
 use std::sync::LazyLock;
@@ -8,10 +10,9 @@ use std::sync::LazyLock;
 /// The pixel storage of a [`TexImage`].
 #[derive(Clone, Debug, PartialEq)]
 pub enum ImageData {
-    /// 8 bits per channel, as stored in the file (sRGB-encoded unless the
-    /// texture says `raw`).
+    /// 8 bits per channel, as stored in the file.
     U8(Vec<u8>),
-    /// Linear floating-point values.
+    /// Floating-point values.
     F32(Vec<f32>),
 }
 
@@ -26,10 +27,14 @@ pub struct TexImage {
     pub channels: u32,
     /// The pixels.
     pub data: ImageData,
+    /// The colour channels are sRGB-encoded (8- and 16-bit PNG and JPEG):
+    /// textures decode them unless told the data is `raw`. Alpha is never
+    /// encoded.
+    pub encoded: bool,
     /// Per-channel means of the raw values (bytes scaled to [0, 1]).
     pub mean_raw: [f32; 4],
-    /// Per-channel means after sRGB decoding of 8-bit data (equal to
-    /// `mean_raw` for float data).
+    /// Per-channel means after sRGB decoding of encoded data (equal to
+    /// `mean_raw` otherwise).
     pub mean_linear: [f32; 4],
 }
 
@@ -47,9 +52,16 @@ pub fn srgb_to_linear(v: f32) -> f32 {
 }
 
 impl TexImage {
-    /// An image of `channels` (1 to 4) per pixel; `None` when the sizes do
-    /// not match or the image is empty.
-    pub fn new(width: u32, height: u32, channels: u32, data: ImageData) -> Option<Self> {
+    /// An image of `channels` (1 to 4) per pixel, its colour channels
+    /// sRGB-encoded when `encoded`; `None` when the sizes do not match or
+    /// the image is empty.
+    pub fn new(
+        width: u32,
+        height: u32,
+        channels: u32,
+        data: ImageData,
+        encoded: bool,
+    ) -> Option<Self> {
         let n = width as usize * height as usize * channels as usize;
         let len = match &data {
             ImageData::U8(d) => d.len(),
@@ -63,6 +75,7 @@ impl TexImage {
             height,
             channels,
             data,
+            encoded,
             mean_raw: [0.0; 4],
             mean_linear: [0.0; 4],
         };
@@ -85,16 +98,18 @@ impl TexImage {
 
     #[inline]
     fn value(&self, index: usize, decode: bool) -> f32 {
+        let decode = decode && self.encoded;
         match &self.data {
             ImageData::U8(d) if decode => SRGB_TO_LINEAR[d[index] as usize],
             ImageData::U8(d) => d[index] as f32 * (1.0 / 255.0),
+            ImageData::F32(d) if decode => srgb_to_linear(d[index]),
             ImageData::F32(d) => d[index],
         }
     }
 
     /// The texel at column `x`, row `y` (in range), as RGBA: a one-channel
-    /// image fills RGB with its value; missing alpha is 1. 8-bit values are
-    /// sRGB-decoded when `decode`.
+    /// image fills RGB with its value; missing alpha is 1. Encoded colour
+    /// values are sRGB-decoded when `decode`.
     #[inline]
     pub fn texel(&self, x: u32, y: u32, decode: bool) -> Vec4 {
         let c = self.channels as usize;
@@ -146,13 +161,13 @@ mod tests {
 
     #[test]
     fn texels_and_means() {
-        let img = TexImage::new(2, 1, 3, ImageData::U8(vec![255, 128, 0, 0, 0, 0])).unwrap();
+        let img = TexImage::new(2, 1, 3, ImageData::U8(vec![255, 128, 0, 0, 0, 0]), true).unwrap();
         let t = img.texel(0, 0, true);
         assert!((t.y - srgb_to_linear(128.0 / 255.0)).abs() < 1e-6);
         assert_eq!(img.texel(0, 0, false).x, 1.0);
         assert!((img.mean_raw[0] - 0.5).abs() < 1e-6);
-        assert!(TexImage::new(2, 2, 3, ImageData::U8(vec![0; 3])).is_none());
-        let grey = TexImage::new(1, 1, 1, ImageData::F32(vec![0.25])).unwrap();
+        assert!(TexImage::new(2, 2, 3, ImageData::U8(vec![0; 3]), true).is_none());
+        let grey = TexImage::new(1, 1, 1, ImageData::F32(vec![0.25]), false).unwrap();
         assert_eq!(grey.texel(0, 0, true), Vec4::new(0.25, 0.25, 0.25, 1.0));
     }
 }

@@ -1,0 +1,178 @@
+//! [`yubin_core::params::Params`] for one object of a scene description:
+//! the bridge through which every core plugin's `from_params` reads its
+//! parameters. Reads mark parameters used (the builder reports the rest),
+//! nested BSDFs and textures are built into the scene under construction
+//! (each shared object once), image files are loaded once per path, and
+//! errors carry `file:line`.
+
+use crate::build::Builder;
+use crate::desc::{Category, Object, Spectrum, Value};
+use crate::error::SceneError;
+use glam::{DMat4, Vec3};
+use yubin_core::bsdf::Bsdf;
+use yubin_core::params::{ColorKind, ParamError, Params};
+use yubin_core::spectrum::{sampled_spectrum_to_rgb, Rgb};
+use yubin_core::texture::Tex;
+
+/// One object seen through [`Params`], with the builder that builds what it
+/// refers to.
+pub(crate) struct ObjParams<'o, 'b, 'd> {
+    pub obj: &'o Object,
+    pub b: &'b mut Builder<'d>,
+}
+
+/// A scene error as a parameter error (its message already says where).
+pub(crate) fn to_param(e: SceneError) -> ParamError {
+    ParamError(e.to_string())
+}
+
+/// A constant spectrum in an RGB renderer: that value in every channel,
+/// except as emission, where it is the sRGB colour of an equal-energy
+/// spectrum (illuminant E), which is what Mitsuba 3's RGB variants produce.
+fn constant_spectrum_to_rgb(v: f32, kind: ColorKind) -> Rgb {
+    match kind {
+        ColorKind::Illuminant => Rgb::new(1.204_88, 0.948_229, 0.909_267) * v,
+        ColorKind::Reflectance | ColorKind::Unbounded => Rgb::splat(v),
+    }
+}
+
+/// A colour property's value as RGB for its role.
+fn value_to_rgb(value: &Value, kind: ColorKind) -> Option<Rgb> {
+    Some(match value {
+        Value::Rgb(c) => Rgb::from_array(*c),
+        Value::Float(v) => Rgb::splat(*v as f32),
+        Value::Integer(v) => Rgb::splat(*v as f32),
+        Value::Spectrum(Spectrum::Constant(v)) => constant_spectrum_to_rgb(*v, kind),
+        Value::Spectrum(Spectrum::Sampled(s)) => {
+            sampled_spectrum_to_rgb(s, kind == ColorKind::Reflectance)
+        }
+        _ => return None,
+    })
+}
+
+impl ObjParams<'_, '_, '_> {
+    fn check_color(&self, name: &str, rgb: Rgb, kind: ColorKind) -> Result<Rgb, ParamError> {
+        if !rgb.is_finite() || (kind != ColorKind::Unbounded && rgb.min_element() < 0.0) {
+            return Err(self.param_error(name, &format!("has an invalid value {rgb}")));
+        }
+        Ok(rgb)
+    }
+
+    /// A nested object called `name` that is not of one of `allowed`
+    /// categories is an error; returns the child when it is.
+    fn named_child(&self, name: &str) -> Option<std::rc::Rc<Object>> {
+        self.obj.child(name).map(|c| c.object.clone())
+    }
+}
+
+impl Params for ObjParams<'_, '_, '_> {
+    fn describe(&self) -> String {
+        self.obj.describe()
+    }
+
+    fn error_at(&self, name: Option<&str>, msg: &str) -> ParamError {
+        let loc = match name {
+            Some(n) => self.obj.loc_of(n),
+            None => &self.obj.loc,
+        };
+        ParamError(format!("{loc}: {msg}"))
+    }
+
+    fn has(&self, name: &str) -> bool {
+        self.obj.has(name)
+    }
+
+    fn float(&mut self, name: &str) -> Result<Option<f32>, ParamError> {
+        self.obj.float(name).map_err(to_param)
+    }
+
+    fn integer(&mut self, name: &str) -> Result<Option<i64>, ParamError> {
+        self.obj.integer(name).map_err(to_param)
+    }
+
+    fn boolean(&mut self, name: &str) -> Result<Option<bool>, ParamError> {
+        self.obj.boolean(name).map_err(to_param)
+    }
+
+    fn string(&mut self, name: &str) -> Result<Option<String>, ParamError> {
+        Ok(self.obj.string(name).map_err(to_param)?.map(str::to_owned))
+    }
+
+    fn point(&mut self, name: &str) -> Result<Option<Vec3>, ParamError> {
+        self.obj.point(name).map_err(to_param)
+    }
+
+    fn vector(&mut self, name: &str) -> Result<Option<Vec3>, ParamError> {
+        self.obj.vector(name).map_err(to_param)
+    }
+
+    fn transform(&mut self, name: &str) -> Result<Option<DMat4>, ParamError> {
+        self.obj.transform_opt(name).map_err(to_param)
+    }
+
+    fn color(&mut self, name: &str, kind: ColorKind) -> Result<Option<Rgb>, ParamError> {
+        if let Some(child) = self.named_child(name) {
+            return match child.category {
+                Category::Spectrum => {
+                    let rgb = self.b.spectrum_object(&child, kind)?;
+                    self.check_color(name, rgb, kind).map(Some)
+                }
+                other => Err(self.param_error(
+                    name,
+                    &format!("must be a colour or a number, not a {other}"),
+                )),
+            };
+        }
+        let Some(value) = self.obj.rgb_or_spectrum(name).map_err(to_param)? else {
+            return Ok(None);
+        };
+        let rgb =
+            value_to_rgb(value, kind).ok_or_else(|| self.param_error(name, "expected a colour"))?;
+        self.check_color(name, rgb, kind).map(Some)
+    }
+
+    fn texture(&mut self, name: &str, kind: ColorKind) -> Result<Option<Tex>, ParamError> {
+        if let Some(child) = self.obj.find_named_child(name) {
+            if child.category == Category::Texture {
+                self.obj.child(name);
+                return self.b.texture(&child).map(|t| Some(Tex::Texture(t)));
+            }
+        }
+        Ok(self.color(name, kind)?.map(Tex::Const))
+    }
+
+    fn bsdfs(&mut self) -> Result<Vec<(u32, Bsdf)>, ParamError> {
+        let kids: Vec<_> = self
+            .obj
+            .children_of(Category::Bsdf)
+            .map(|c| c.object.clone())
+            .collect();
+        kids.iter()
+            .map(|k| {
+                let id = self.b.bsdf(k).map_err(to_param)?;
+                Ok((id, self.b.built_bsdf(id)))
+            })
+            .collect()
+    }
+
+    fn image(&mut self, name: &str) -> Result<Option<u32>, ParamError> {
+        let Some(file) = self.obj.string(name).map_err(to_param)? else {
+            return Ok(None);
+        };
+        let file = file.to_owned();
+        let loc = self.obj.loc_of(name).clone();
+        self.b.image(&file, &loc).map(Some).map_err(to_param)
+    }
+
+    fn mark_ignored(&mut self, name: &str) {
+        self.obj.mark_ignored(name);
+    }
+
+    fn warn(&mut self, name: Option<&str>, msg: &str) {
+        let loc = match name {
+            Some(n) => self.obj.loc_of(n),
+            None => &self.obj.loc,
+        };
+        self.b.warnings.push(format!("{loc}: {msg}"));
+    }
+}
