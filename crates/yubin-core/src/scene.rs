@@ -15,10 +15,10 @@ use crate::film::Film;
 use crate::filter::Filter;
 use crate::interaction::SurfaceInteraction;
 use crate::light::{AreaLight, Emitter, EmitterContext};
-use crate::sampling::Distribution2D;
 use crate::material::Materials;
 use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
+use crate::sampling::Distribution2D;
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
 use crate::texture::{TexImage, Texture};
 use crate::Rgb;
@@ -822,11 +822,12 @@ impl SceneBuilder {
             g.bvh = bvh;
         }
         let light_distributions =
-            crate::light::build_distributions(&mut self.emitters, &self.materials.images)
-                .map_err(|index| BuildError::BadIndex {
+            crate::light::build_distributions(&mut self.emitters, &self.materials.images).map_err(
+                |index| BuildError::BadIndex {
                     what: "image",
                     index,
-                })?;
+                },
+            )?;
         let environment_emitters = self
             .emitters
             .iter()

@@ -131,8 +131,10 @@ impl Distribution2D {
     /// When the grid is empty or `weights` has another length.
     pub fn new(weights: &[f32], width: usize, height: usize) -> Self {
         assert!(width > 0 && height > 0 && weights.len() == width * height);
-        let conditional: Vec<Distribution1D> =
-            weights.chunks_exact(width).map(Distribution1D::new).collect();
+        let conditional: Vec<Distribution1D> = weights
+            .chunks_exact(width)
+            .map(Distribution1D::new)
+            .collect();
         let row_integrals: Vec<f32> = conditional.iter().map(|c| c.integral()).collect();
         Self {
             marginal: Distribution1D::new(&row_integrals),
