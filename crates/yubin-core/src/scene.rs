@@ -18,6 +18,7 @@ use crate::light::{AreaLight, Emitter, EmitterContext};
 use crate::material::Materials;
 use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
+use crate::sampling::Distribution2D;
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
 use crate::texture::{TexImage, Texture};
 use crate::Rgb;
@@ -169,6 +170,9 @@ pub struct Scene {
     pub emitters: Vec<Emitter>,
     /// Indices of emitters at infinity (hit by escaping rays).
     pub environment_emitters: Vec<u32>,
+    /// Sampling distributions that emitters refer to by index (one per
+    /// `envmap`), made by [`SceneBuilder::build`].
+    pub light_distributions: Vec<Distribution2D>,
     /// The camera.
     pub camera: Camera,
     /// The film.
@@ -193,6 +197,8 @@ impl Scene {
         EmitterContext {
             shapes: &self.shapes,
             meshes: &self.meshes,
+            images: &self.materials.images,
+            distributions: &self.light_distributions,
         }
     }
 
@@ -675,7 +681,9 @@ impl SceneBuilder {
         Ok(())
     }
 
-    /// Adds a non-surface emitter (point, directional, environment).
+    /// Adds a non-surface emitter (point, directional, environment). An
+    /// `envmap`'s image must be in the image table ([`SceneBuilder::add_image`])
+    /// by the time the scene is built, which makes its sampling distribution.
     pub fn add_emitter(&mut self, e: Emitter) -> u32 {
         self.emitters.push(e);
         self.emitters.len() as u32 - 1
@@ -702,7 +710,7 @@ impl SceneBuilder {
     /// Builds the acceleration structures and returns the scene. Without
     /// a camera, a 45° perspective camera at the origin looking down +z
     /// is used.
-    pub fn build(self) -> Result<Scene, BuildError> {
+    pub fn build(mut self) -> Result<Scene, BuildError> {
         for b in &self.materials.bsdfs {
             if let Bsdf::TwoSided(t) = b {
                 for index in [t.front, t.back] {
@@ -813,6 +821,13 @@ impl SceneBuilder {
             }
             g.bvh = bvh;
         }
+        let light_distributions =
+            crate::light::build_distributions(&mut self.emitters, &self.materials.images).map_err(
+                |index| BuildError::BadIndex {
+                    what: "image",
+                    index,
+                },
+            )?;
         let environment_emitters = self
             .emitters
             .iter()
@@ -827,6 +842,7 @@ impl SceneBuilder {
             materials: self.materials,
             emitters: self.emitters,
             environment_emitters,
+            light_distributions,
             camera,
             film: self.film,
             sampler: self.sampler,

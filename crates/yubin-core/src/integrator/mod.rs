@@ -65,7 +65,7 @@ pub(crate) fn environment_radiance(
         .iter()
         .map(|&e| {
             let emitter = &scene.emitters[e as usize];
-            let le = emitter.environment_radiance(d);
+            let le = emitter.environment_radiance(&ctx, d);
             match bsdf_pdf {
                 None => le,
                 Some(pdf) => {

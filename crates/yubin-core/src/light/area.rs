@@ -82,7 +82,7 @@ mod tests {
         })];
         let ctx = EmitterContext {
             shapes: &shapes,
-            meshes: &[],
+            ..EmitterContext::EMPTY
         };
         let light = Emitter::Area(AreaLight {
             shape: 0,

@@ -51,10 +51,7 @@ mod tests {
     #[test]
     fn chi2_constant_light() {
         let l = ConstantLight { radiance: Rgb::ONE };
-        let ctx = EmitterContext {
-            shapes: &[],
-            meshes: &[],
-        };
+        let ctx = EmitterContext::EMPTY;
         chi2_directions(
             &Chi2Config::default(),
             |r| {

@@ -56,10 +56,7 @@ mod tests {
             direction: -Vec3::Z,
             irradiance: Rgb::splat(3.0),
         };
-        let ctx = EmitterContext {
-            shapes: &[],
-            meshes: &[],
-        };
+        let ctx = EmitterContext::EMPTY;
         for p in [Vec3::ZERO, Vec3::new(5.0, -2.0, 1.0)] {
             let s = l.sample_direction(&ctx, p, Vec2::new(0.5, 0.5)).unwrap();
             assert!(s.is_delta && s.pdf == 1.0 && s.dist.is_infinite());

@@ -7,28 +7,54 @@
 //! (1 for delta lights, flagged by `is_delta`). [`EmitterModel::pdf_direction`]
 //! returns the same density for a point found by tracing a ray, so that
 //! integrators can weight both strategies with MIS.
+//!
+//! Emitters at infinity ([`Emitter::is_environment`]) also give the
+//! radiance of rays that escape the scene ([`Emitter::environment_radiance`]).
+//! Scene front ends build emitters through [`PLUGINS`]; an emitter that
+//! needs scene-owned data (an `envmap`'s sampling distribution) gets it
+//! when the scene is built ([`build_distributions`]).
 
 mod area;
 mod constant;
 mod directional;
+mod envmap;
 mod point;
 
 pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
+pub use envmap::EnvMapLight;
 pub use point::PointLight;
 
+use crate::params::{ParamError, Params};
+use crate::sampling::Distribution2D;
 use crate::shape::{Shape, TriangleMesh};
+use crate::texture::TexImage;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
 
-/// What an emitter needs to know about the scene: shapes for area lights.
+/// What an emitter needs to know about the scene: shapes for area lights,
+/// images and sampling distributions for environment maps.
 #[derive(Clone, Copy, Debug)]
 pub struct EmitterContext<'a> {
     /// The scene's shapes.
     pub shapes: &'a [Shape],
     /// The scene's meshes.
     pub meshes: &'a [TriangleMesh],
+    /// The scene's images ([`crate::material::Materials::images`]).
+    pub images: &'a [TexImage],
+    /// Sampling distributions of emitters (`Scene::light_distributions`).
+    pub distributions: &'a [Distribution2D],
+}
+
+impl EmitterContext<'static> {
+    /// A context of an empty scene (for tests of lights that need none).
+    pub const EMPTY: Self = Self {
+        shapes: &[],
+        meshes: &[],
+        images: &[],
+        distributions: &[],
+    };
 }
 
 /// A light sample seen from a reference point.
@@ -70,6 +96,36 @@ pub enum Emitter {
     Directional(DirectionalLight),
     /// `constant`.
     Constant(ConstantLight),
+    /// `envmap`.
+    EnvMap(EnvMapLight),
+}
+
+/// Builds an emitter plugin from its parameters.
+pub type EmitterFromParams = fn(&mut dyn Params) -> Result<Emitter, ParamError>;
+
+/// Every emitter plugin built from parameters alone: its scene type string
+/// and constructor. (`area` belongs to a shape and is added with it.)
+pub const PLUGINS: &[(&str, EmitterFromParams)] = &[("envmap", |p| {
+    Ok(Emitter::EnvMap(EnvMapLight::from_params(p)?))
+})];
+
+/// Builds the sampling distributions that emitters keep in the scene
+/// (`Scene::light_distributions`) and points each emitter at its own;
+/// `SceneBuilder::build` calls it. Fails with the index of an image that
+/// is not in `images`.
+pub fn build_distributions(
+    emitters: &mut [Emitter],
+    images: &[TexImage],
+) -> Result<Vec<Distribution2D>, u32> {
+    let mut distributions = Vec::new();
+    for e in emitters {
+        if let Emitter::EnvMap(env) = e {
+            let image = images.get(env.image as usize).ok_or(env.image)?;
+            env.distribution = distributions.len() as u32;
+            distributions.push(env.sampling_distribution(image));
+        }
+    }
+    Ok(distributions)
 }
 
 macro_rules! dispatch {
@@ -79,6 +135,7 @@ macro_rules! dispatch {
             Emitter::Point($l) => $e,
             Emitter::Directional($l) => $e,
             Emitter::Constant($l) => $e,
+            Emitter::EnvMap($l) => $e,
         }
     };
 }
@@ -117,15 +174,16 @@ impl Emitter {
     /// Radiance arriving along a ray with direction `d` that escaped the
     /// scene. Zero for lights that are not at infinity or are delta.
     #[inline]
-    pub fn environment_radiance(&self, _d: Vec3) -> Rgb {
+    pub fn environment_radiance(&self, ctx: &EmitterContext, d: Vec3) -> Rgb {
         match self {
             Emitter::Constant(c) => c.radiance,
+            Emitter::EnvMap(m) => m.radiance(ctx, d),
             _ => Rgb::ZERO,
         }
     }
 
     /// True for lights that surround the scene (hit by escaping rays).
     pub fn is_environment(&self) -> bool {
-        matches!(self, Emitter::Constant(_))
+        matches!(self, Emitter::Constant(_) | Emitter::EnvMap(_))
     }
 }

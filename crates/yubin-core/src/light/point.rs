@@ -62,10 +62,7 @@ mod tests {
             position: Vec3::new(0.0, 2.0, 0.0),
             intensity: Rgb::splat(8.0),
         };
-        let ctx = EmitterContext {
-            shapes: &[],
-            meshes: &[],
-        };
+        let ctx = EmitterContext::EMPTY;
         let s = l
             .sample_direction(&ctx, Vec3::ZERO, Vec2::new(0.3, 0.9))
             .unwrap();

@@ -1,10 +1,13 @@
 //! Warping functions from the unit square to the shapes renderers sample
-//! (hemispheres, cones, triangles, disks), their densities, and a discrete
-//! alias table. Formulas follow pbrt-v4 chapter A.5 and Shirley & Chiu 1997.
+//! (hemispheres, cones, triangles, disks), their densities, a discrete
+//! alias table, and piecewise-constant 1D and 2D distributions. Formulas
+//! follow pbrt-v4 chapter A.5 and Shirley & Chiu 1997.
 
 mod alias;
+mod distribution2d;
 
 pub use alias::AliasTable;
+pub use distribution2d::{Distribution1D, Distribution2D};
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};

@@ -1,0 +1,269 @@
+//! Piecewise-constant distributions on [0, 1] and [0, 1]², sampled by
+//! inverting their cumulative distribution functions: the 2D one picks a
+//! row from the marginal, then a point in that row from its conditional
+//! (pbrt-v4 §A.5.2–A.5.3; pbrt-v3 §13.6.7). Environment maps use it to
+//! sample texels in proportion to their power.
+
+use glam::Vec2;
+
+/// A piecewise-constant density on [0, 1] made of `n` equal steps whose
+/// heights are proportional to the weights it was built from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Distribution1D {
+    /// Step heights as given (negative and non-finite weights become 0).
+    func: Vec<f32>,
+    /// `n + 1` values from 0 to exactly 1.
+    cdf: Vec<f32>,
+    /// ∫ func over [0, 1] (the mean weight); 0 when every weight was 0,
+    /// in which case the density is uniform.
+    integral: f32,
+}
+
+impl Distribution1D {
+    /// From at least one weight.
+    ///
+    /// # Panics
+    /// When `weights` is empty.
+    pub fn new(weights: &[f32]) -> Self {
+        assert!(!weights.is_empty(), "a distribution needs a weight");
+        let n = weights.len();
+        let func: Vec<f32> = weights
+            .iter()
+            .map(|&w| if w.is_finite() && w > 0.0 { w } else { 0.0 })
+            .collect();
+        // Summed in f64 so that a 4k row's CDF does not drift; the last
+        // entry is set to exactly 1 so that `sample` cannot run off the end.
+        let mut cdf = Vec::with_capacity(n + 1);
+        let mut sum = 0.0f64;
+        cdf.push(0.0);
+        for &f in &func {
+            sum += f as f64;
+            cdf.push(sum);
+        }
+        let integral = sum / n as f64;
+        let cdf = if sum > 0.0 {
+            cdf.iter().map(|&c| (c / sum) as f32).collect()
+        } else {
+            (0..=n).map(|i| i as f32 / n as f32).collect()
+        };
+        let mut d = Self {
+            func,
+            cdf,
+            integral: integral as f32,
+        };
+        d.cdf[n] = 1.0;
+        d
+    }
+
+    /// Number of steps.
+    pub fn len(&self) -> usize {
+        self.func.len()
+    }
+
+    /// Always false (a distribution has at least one step).
+    pub fn is_empty(&self) -> bool {
+        self.func.is_empty()
+    }
+
+    /// Mean of the weights (∫ of the step function over [0, 1]).
+    pub fn integral(&self) -> f32 {
+        self.integral
+    }
+
+    /// Density at step `i`.
+    #[inline]
+    fn step_pdf(&self, i: usize) -> f32 {
+        if self.integral > 0.0 {
+            self.func[i] / self.integral
+        } else {
+            1.0
+        }
+    }
+
+    /// A point in [0, 1) for `u` in [0, 1): the point, its density and the
+    /// step it fell in.
+    #[inline]
+    pub fn sample(&self, u: f32) -> (f32, f32, usize) {
+        let n = self.func.len();
+        // The last step whose CDF start is ≤ u; steps of weight 0 have
+        // zero width and are skipped by taking the last such start.
+        let i = self.cdf[..n].partition_point(|&c| c <= u).saturating_sub(1);
+        let width = self.cdf[i + 1] - self.cdf[i];
+        let du = if width > 0.0 {
+            ((u - self.cdf[i]) / width).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let x = ((i as f32 + du) / n as f32).min(ONE_MINUS_EPS);
+        (x, self.step_pdf(i), i)
+    }
+
+    /// The step containing `x` (clamped to [0, 1]).
+    #[inline]
+    pub fn step_of(&self, x: f32) -> usize {
+        let n = self.func.len();
+        ((x * n as f32) as usize).min(n - 1)
+    }
+
+    /// Density at `x` in [0, 1].
+    #[inline]
+    pub fn pdf(&self, x: f32) -> f32 {
+        self.step_pdf(self.step_of(x))
+    }
+}
+
+const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// A piecewise-constant density on [0, 1]² over a `width` × `height` grid
+/// of cells (row-major, row 0 at y = 0), proportional to the cells' weights.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Distribution2D {
+    /// One per row: the density of x given the row.
+    conditional: Vec<Distribution1D>,
+    /// The density of the row (weights: the rows' integrals).
+    marginal: Distribution1D,
+}
+
+impl Distribution2D {
+    /// From `width × height` weights, row by row.
+    ///
+    /// # Panics
+    /// When the grid is empty or `weights` has another length.
+    pub fn new(weights: &[f32], width: usize, height: usize) -> Self {
+        assert!(width > 0 && height > 0 && weights.len() == width * height);
+        let conditional: Vec<Distribution1D> = weights
+            .chunks_exact(width)
+            .map(Distribution1D::new)
+            .collect();
+        let row_integrals: Vec<f32> = conditional.iter().map(|c| c.integral()).collect();
+        Self {
+            marginal: Distribution1D::new(&row_integrals),
+            conditional,
+        }
+    }
+
+    /// Cells per row.
+    pub fn width(&self) -> usize {
+        self.conditional[0].len()
+    }
+
+    /// Rows.
+    pub fn height(&self) -> usize {
+        self.conditional.len()
+    }
+
+    /// A point in [0, 1)² and its density with respect to area on the
+    /// unit square.
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
+        let (y, pdf_y, row) = self.marginal.sample(u.y);
+        let (x, pdf_x, _) = self.conditional[row].sample(u.x);
+        (Vec2::new(x, y), pdf_x * pdf_y)
+    }
+
+    /// Density at `p` (clamped to the unit square) with respect to area.
+    #[inline]
+    pub fn pdf(&self, p: Vec2) -> f32 {
+        let row = self.marginal.step_of(p.y);
+        self.marginal.step_pdf(row) * self.conditional[row].pdf(p.x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::Pcg32;
+    use crate::testing::chi2::chi2_discrete;
+
+    #[test]
+    fn one_d_samples_steps_in_proportion_and_skips_zero_weights() {
+        let w = [0.0, 2.0, 0.0, 0.0, 5.0, 1.0, 0.0];
+        let d = Distribution1D::new(&w);
+        assert!((d.integral() - 8.0 / 7.0).abs() < 1e-6);
+        let n = 100_000;
+        let mut counts = vec![0u64; w.len()];
+        let mut rng = Pcg32::new(3, 1);
+        for _ in 0..n {
+            let (x, pdf, i) = d.sample(rng.next_f32());
+            assert_eq!(d.step_of(x), i, "x = {x} is not in step {i}");
+            assert_eq!(pdf, d.pdf(x));
+            counts[i] += 1;
+        }
+        let expected: Vec<f64> = w.iter().map(|&v| v as f64 / 8.0 * n as f64).collect();
+        chi2_discrete(&counts, &expected, 0.01).unwrap();
+        assert_eq!(counts[0] + counts[2] + counts[3] + counts[6], 0);
+        // The ends of [0, 1) map into the outer non-zero steps.
+        assert_eq!(d.sample(0.0).2, 1);
+        assert_eq!(d.sample(ONE_MINUS_EPS).2, 5);
+    }
+
+    #[test]
+    fn all_zero_weights_give_the_uniform_density() {
+        let d = Distribution1D::new(&[0.0, 0.0, f32::NAN]);
+        assert_eq!(d.pdf(0.7), 1.0);
+        let (x, pdf, _) = d.sample(0.5);
+        assert!((x - 0.5).abs() < 1e-6 && pdf == 1.0);
+    }
+
+    fn grid() -> (Vec<f32>, usize, usize) {
+        let (w, h) = (7, 5);
+        let weights = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                // A bright cell, a dark row and a spread of others.
+                if (x, y) == (5, 1) {
+                    40.0
+                } else if y == 3 {
+                    0.0
+                } else {
+                    ((x * 3 + y * 5) % 7) as f32 * 0.5
+                }
+            })
+            .collect();
+        (weights, w, h)
+    }
+
+    /// Points histogrammed by cell follow the weights (Pearson), and each
+    /// sample's density is what `pdf` says.
+    #[test]
+    fn two_d_chi_square_over_cells() {
+        let (weights, w, h) = grid();
+        let d = Distribution2D::new(&weights, w, h);
+        let total: f64 = weights.iter().map(|&v| v as f64).sum();
+        let n = 200_000;
+        let mut counts = vec![0u64; w * h];
+        let mut rng = Pcg32::new(11, 2);
+        for _ in 0..n {
+            let (p, pdf) = d.sample(Vec2::new(rng.next_f32(), rng.next_f32()));
+            assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y));
+            let (cx, cy) = ((p.x * w as f32) as usize, (p.y * h as f32) as usize);
+            let cell = cy * w + cx;
+            assert!(weights[cell] > 0.0);
+            let expected_pdf = weights[cell] as f64 / total * (w * h) as f64;
+            assert!((pdf as f64 - expected_pdf).abs() < 1e-4 * expected_pdf);
+            assert_eq!(pdf, d.pdf(p));
+            counts[cell] += 1;
+        }
+        let expected: Vec<f64> = weights
+            .iter()
+            .map(|&v| v as f64 / total * n as f64)
+            .collect();
+        chi2_discrete(&counts, &expected, 0.01).unwrap();
+    }
+
+    #[test]
+    fn two_d_pdf_integrates_to_one() {
+        let (weights, w, h) = grid();
+        let d = Distribution2D::new(&weights, w, h);
+        let m = 140; // a multiple of both grid sizes: midpoints never sit on cell edges
+        let mut sum = 0.0f64;
+        for j in 0..m {
+            for i in 0..m {
+                let p = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
+                sum += d.pdf(p) as f64;
+            }
+        }
+        let integral = sum / (m * m) as f64;
+        assert!((integral - 1.0).abs() < 1e-5, "∫ pdf = {integral}");
+    }
+}
