@@ -135,6 +135,17 @@ pub trait Params {
     fn texture_or(&mut self, name: &str, kind: ColorKind, default: Rgb) -> Result<Tex, ParamError> {
         Ok(self.texture(name, kind)?.unwrap_or(Tex::Const(default)))
     }
+    /// Transform `name` as an invertible [`crate::math::Transform`]
+    /// (identity when absent).
+    fn transform_or_identity(&mut self, name: &str) -> Result<crate::math::Transform, ParamError> {
+        let m = self.transform(name)?.unwrap_or(DMat4::IDENTITY);
+        crate::math::Transform::from_mat4(m.as_mat4()).ok_or_else(|| {
+            self.error_at(
+                Some(name),
+                &format!("\"{name}\" of {} is not invertible", self.describe()),
+            )
+        })
+    }
     /// A float that must be positive (NaN is rejected too).
     fn positive_float_or(&mut self, name: &str, default: f32) -> Result<f32, ParamError> {
         let v = self.float_or(name, default)?;

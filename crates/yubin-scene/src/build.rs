@@ -29,7 +29,6 @@ use yubin_core::camera::{Camera, FovAxis, Perspective};
 use yubin_core::film::Film;
 use yubin_core::filter::Filter;
 use yubin_core::integrator::{DirectIntegrator, Integrator, MomentIntegrator, PathIntegrator};
-use yubin_core::light::{ConstantLight, DirectionalLight, Emitter, PointLight};
 use yubin_core::math::Transform;
 use yubin_core::params::{ColorKind, ParamError, Params};
 use yubin_core::sampler::{Independent, Sampler, Sobol};
@@ -654,33 +653,21 @@ impl Builder<'_> {
     }
 
     fn emitter(&mut self, obj: &Object) -> Result<(), SceneError> {
-        let e = match obj.plugin_type.as_str() {
-            "point" => {
-                let t = transform_of(obj, "to_world")?;
-                let position = obj.point_or("position", Vec3::ZERO)?;
-                Emitter::Point(PointLight {
-                    position: t.point(position),
-                    intensity: color(obj, "intensity", Some(Rgb::ONE), false)?,
-                })
+        if obj.plugin_type == "area" {
+            if obj.id.is_some() {
+                // Declared at the top level to be attached to shapes by
+                // `<ref>`; each shape that refers to it builds it.
+                return Ok(());
             }
-            "directional" => {
-                let t = transform_of(obj, "to_world")?;
-                let d = obj.vector_or("direction", Vec3::Z)?;
-                let direction = t
-                    .vector(d)
-                    .try_normalize()
-                    .ok_or_else(|| obj.param_error("direction", "must not be zero"))?;
-                Emitter::Directional(DirectionalLight {
-                    direction,
-                    irradiance: color(obj, "irradiance", Some(Rgb::ONE), false)?,
-                })
-            }
-            "constant" => Emitter::Constant(ConstantLight {
-                radiance: color(obj, "radiance", Some(Rgb::ONE), false)?,
-            }),
-            "area" => return Err(obj.error("an area emitter must be nested inside a shape")),
-            _ => return Err(unknown_type(obj, "area, point, directional, constant")),
-        };
+            return Err(obj.error(
+                "an area emitter must be nested inside a shape (or declared with an id and referenced from shapes)",
+            ));
+        }
+        let build = plugin(obj, yubin_core::light::PLUGINS).map_err(|_| {
+            let known: Vec<&str> = yubin_core::light::PLUGINS.iter().map(|(n, _)| *n).collect();
+            unknown_type(obj, &format!("area, {}", known.join(", ")))
+        })?;
+        let e = build(&mut ObjParams { obj, b: self })?;
         self.sb.add_emitter(e);
         Ok(())
     }

@@ -79,7 +79,7 @@
 //! is more precise). A missing include is [`SceneError::NotFound`] listing
 //! every path tried.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 use std::sync::Arc;
@@ -128,8 +128,9 @@ pub fn parse_str(
     src.check_attributes(root, &["version"])?;
     let mut scene = Object::new(Category::Scene, "scene", src.loc(root));
     parser.parse_body(&src, root, &mut scene)?;
+    let root = parser.resolve_forward(Rc::new(scene))?;
     Ok(SceneDesc {
-        root: Rc::new(scene),
+        root,
         version,
         file: path.to_path_buf(),
         search_paths: parser.search_paths,
@@ -142,10 +143,67 @@ struct Parser {
     params: HashMap<String, String>,
     /// Objects declared with an `id`, for `<ref>`.
     ids: HashMap<String, Rc<Object>>,
+    /// Stand-ins for `<ref>`s to ids not declared yet (Mitsuba resolves
+    /// references after parsing), by address: the id and where it was used.
+    /// The `Rc`s keep the addresses unique until they are resolved.
+    forward: Vec<(Rc<Object>, String, Location)>,
     /// The main file's directory, then `<path>` entries.
     search_paths: Vec<PathBuf>,
     /// Files being included, outermost first, to catch cycles.
     include_stack: Vec<PathBuf>,
+}
+
+/// Rebuilds a parsed tree with forward references resolved.
+struct Resolver<'a> {
+    ids: &'a HashMap<String, Rc<Object>>,
+    stand_ins: HashMap<*const Object, (&'a str, &'a Location)>,
+    /// Each object already resolved, by its address before resolution.
+    done: HashMap<*const Object, Rc<Object>>,
+    /// Objects being resolved (to catch cycles).
+    active: HashSet<*const Object>,
+}
+
+impl Resolver<'_> {
+    fn resolve(&mut self, obj: &Rc<Object>) -> Result<Rc<Object>, SceneError> {
+        let key = Rc::as_ptr(obj);
+        if let Some(done) = self.done.get(&key) {
+            return Ok(done.clone());
+        }
+        if let Some(&(id, loc)) = self.stand_ins.get(&key) {
+            let target = self
+                .ids
+                .get(id)
+                .ok_or_else(|| SceneError::at(loc, format!("unknown id \"{id}\"")))?
+                .clone();
+            let resolved = self.resolve(&target)?;
+            self.done.insert(key, resolved.clone());
+            return Ok(resolved);
+        }
+        if !self.active.insert(key) {
+            return Err(obj.error("refers to itself through <ref> (a reference cycle)"));
+        }
+        let mut children = Vec::with_capacity(obj.children.len());
+        let mut changed = false;
+        for child in &obj.children {
+            let object = self.resolve(&child.object)?;
+            changed |= !Rc::ptr_eq(&object, &child.object);
+            children.push(Child {
+                object,
+                ..child.clone()
+            });
+        }
+        self.active.remove(&key);
+        let resolved = if changed {
+            Rc::new(Object {
+                children,
+                ..(**obj).clone()
+            })
+        } else {
+            obj.clone()
+        };
+        self.done.insert(key, resolved.clone());
+        Ok(resolved)
+    }
 }
 
 /// One XML document being read: the tree, its file name and its version.
@@ -169,6 +227,7 @@ impl Parser {
         Self {
             params: defines.iter().cloned().collect(),
             ids: HashMap::new(),
+            forward: Vec::new(),
             search_paths: vec![directory_of(path)],
             include_stack: vec![path.to_path_buf()],
         }
@@ -307,11 +366,20 @@ impl Parser {
         Ok(())
     }
 
-    /// `<ref id= [name=]>`: the object declared earlier with that id.
-    fn reference(&self, src: &Source, el: Node, parent: &Object) -> Result<Child, SceneError> {
+    /// `<ref id= [name=]>`: the object declared with that id, before or
+    /// (through a stand-in resolved after parsing) after the reference.
+    fn reference(&mut self, src: &Source, el: Node, parent: &Object) -> Result<Child, SceneError> {
         src.check_attributes(el, &["id", "name"])?;
         let id = self.required(src, el, "id")?;
-        let object = self.lookup_id(&id)?;
+        let object = match self.ids.get(&id.value) {
+            Some(object) => object.clone(),
+            None => {
+                let stand_in = Rc::new(Object::new(Category::Scene, "ref", id.loc.clone()));
+                self.forward
+                    .push((stand_in.clone(), id.value.clone(), id.loc.clone()));
+                stand_in
+            }
+        };
         Ok(Child {
             name: self.child_name(src, el, parent)?,
             object,
@@ -364,15 +432,31 @@ impl Parser {
     }
 
     fn lookup_id(&self, id: &Attr) -> Result<Rc<Object>, SceneError> {
-        self.ids.get(&id.value).cloned().ok_or_else(|| {
-            SceneError::at(
-                &id.loc,
-                format!(
-                    "unknown id \"{}\" (objects must be declared before they are referenced)",
-                    id.value
-                ),
-            )
-        })
+        self.ids
+            .get(&id.value)
+            .cloned()
+            .ok_or_else(|| SceneError::at(&id.loc, format!("unknown id \"{}\"", id.value)))
+    }
+
+    /// Replaces the stand-ins of forward references with the objects they
+    /// name, rebuilding only the objects on a path to a stand-in (shared
+    /// objects stay shared). A reference cycle is an error.
+    fn resolve_forward(&self, root: Rc<Object>) -> Result<Rc<Object>, SceneError> {
+        if self.forward.is_empty() {
+            return Ok(root);
+        }
+        let stand_ins: HashMap<*const Object, (&str, &Location)> = self
+            .forward
+            .iter()
+            .map(|(o, id, loc)| (Rc::as_ptr(o), (id.as_str(), loc)))
+            .collect();
+        let mut resolver = Resolver {
+            ids: &self.ids,
+            stand_ins,
+            done: HashMap::new(),
+            active: HashSet::new(),
+        };
+        resolver.resolve(&root)
     }
 
     /// A property element: its name and parsed value.
@@ -1608,5 +1692,35 @@ mod tests {
             .unwrap()
             .unwrap();
         assert_eq!(sampler.object.integer("sample_count").unwrap(), Some(32));
+    }
+
+    #[test]
+    fn references_may_come_before_the_declaration() {
+        let desc = parse_ok(&scene(
+            r#"<shape type="sphere"><ref id="late"/><ref id="light"/></shape>
+               <shape type="sphere"><ref id="late"/></shape>
+               <bsdf type="diffuse" id="late"/>
+               <emitter type="area" id="light"><rgb name="radiance" value="1"/></emitter>"#,
+        ));
+        let shapes: Vec<_> = desc
+            .root
+            .children
+            .iter()
+            .take(2)
+            .map(|c| c.object.clone())
+            .collect();
+        let declared = &desc.root.children[2].object;
+        assert!(Rc::ptr_eq(&shapes[0].children[0].object, declared));
+        assert!(Rc::ptr_eq(&shapes[1].children[0].object, declared));
+        assert_eq!(shapes[0].children[1].object.plugin_type, "area");
+        let err = error_text(&scene(
+            r#"<shape type="sphere"><ref id="nowhere"/></shape>"#,
+        ));
+        assert!(err.contains("unknown id \"nowhere\""), "{err}");
+        let err = error_text(&scene(
+            r#"<bsdf type="twosided" id="a"><ref id="b"/></bsdf>
+               <bsdf type="twosided" id="b"><ref id="a"/></bsdf>"#,
+        ));
+        assert!(err.contains("reference cycle"), "{err}");
     }
 }

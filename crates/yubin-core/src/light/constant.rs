@@ -12,6 +12,7 @@
 //! Sampled uniformly over the sphere of directions (density 1/4π).
 
 use super::{EmitterContext, EmitterModel, EmitterSample};
+use crate::params::{ColorKind, ParamError, Params};
 use crate::sampling::{square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
 use crate::Rgb;
 use glam::{Vec2, Vec3};
@@ -21,6 +22,15 @@ use glam::{Vec2, Vec3};
 pub struct ConstantLight {
     /// Radiance.
     pub radiance: Rgb,
+}
+
+impl ConstantLight {
+    /// Builds the light from its scene parameters.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        Ok(Self {
+            radiance: p.color_or("radiance", ColorKind::Illuminant, Rgb::ONE)?,
+        })
+    }
 }
 
 impl EmitterModel for ConstantLight {

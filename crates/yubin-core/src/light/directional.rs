@@ -3,7 +3,7 @@
 //!
 //! | parameter    | type           | default    | meaning                                    |
 //! |--------------|----------------|------------|--------------------------------------------|
-//! | `irradiance` | rgb / spectrum | —          | irradiance E on a surface facing the light |
+//! | `irradiance` | rgb / spectrum | 1          | irradiance E on a surface facing the light |
 //! | `direction`  | vector         | (0, 0, 1)  | direction the light travels (or `to_world` applied to +z) |
 //!
 //! ```xml
@@ -14,6 +14,7 @@
 //! surface facing the light reflects ρE/π.
 
 use super::{EmitterContext, EmitterModel, EmitterSample};
+use crate::params::{ColorKind, ParamError, Params};
 use crate::Rgb;
 use glam::{Vec2, Vec3};
 
@@ -24,6 +25,22 @@ pub struct DirectionalLight {
     pub direction: Vec3,
     /// Irradiance.
     pub irradiance: Rgb,
+}
+
+impl DirectionalLight {
+    /// Builds the light from its scene parameters.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let t = p.transform_or_identity("to_world")?;
+        let d = p.vector("direction")?.unwrap_or(Vec3::Z);
+        let direction = t
+            .vector(d)
+            .try_normalize()
+            .ok_or_else(|| p.param_error("direction", "must not be zero"))?;
+        Ok(Self {
+            direction,
+            irradiance: p.color_or("irradiance", ColorKind::Illuminant, Rgb::ONE)?,
+        })
+    }
 }
 
 impl EmitterModel for DirectionalLight {

@@ -282,7 +282,7 @@ mod tests {
                 data.push((x * y) as f32 * 0.125 + 1.0);
             }
         }
-        TexImage::new(w, h, 3, ImageData::F32(data)).unwrap()
+        TexImage::new(w, h, 3, ImageData::F32(data), false).unwrap()
     }
 
     fn context<'a>(images: &'a [TexImage], dists: &'a [Distribution2D]) -> EmitterContext<'a> {
@@ -388,7 +388,7 @@ mod tests {
                 data.extend_from_slice(&v);
             }
         }
-        TexImage::new(w, h, 3, ImageData::F32(data)).unwrap()
+        TexImage::new(w, h, 3, ImageData::F32(data), false).unwrap()
     }
 
     fn chi2(light: EnvMapLight, img: TexImage) {
@@ -478,7 +478,7 @@ mod tests {
     fn constant_image_is_the_constant_emitter() {
         let value = [0.7, 1.3, 2.1];
         let data = value.repeat(16 * 8);
-        let img = TexImage::new(16, 8, 3, ImageData::F32(data)).unwrap();
+        let img = TexImage::new(16, 8, 3, ImageData::F32(data), false).unwrap();
         let mut light = EnvMapLight::new(0, 1.5, Mat3::from_rotation_y(1.0), false);
         let dists = with_distribution(&mut light, &img);
         let images = [img];

@@ -105,9 +105,18 @@ pub type EmitterFromParams = fn(&mut dyn Params) -> Result<Emitter, ParamError>;
 
 /// Every emitter plugin built from parameters alone: its scene type string
 /// and constructor. (`area` belongs to a shape and is added with it.)
-pub const PLUGINS: &[(&str, EmitterFromParams)] = &[("envmap", |p| {
-    Ok(Emitter::EnvMap(EnvMapLight::from_params(p)?))
-})];
+pub const PLUGINS: &[(&str, EmitterFromParams)] = &[
+    ("point", |p| Ok(Emitter::Point(PointLight::from_params(p)?))),
+    ("directional", |p| {
+        Ok(Emitter::Directional(DirectionalLight::from_params(p)?))
+    }),
+    ("constant", |p| {
+        Ok(Emitter::Constant(ConstantLight::from_params(p)?))
+    }),
+    ("envmap", |p| {
+        Ok(Emitter::EnvMap(EnvMapLight::from_params(p)?))
+    }),
+];
 
 /// Builds the sampling distributions that emitters keep in the scene
 /// (`Scene::light_distributions`) and points each emitter at its own;

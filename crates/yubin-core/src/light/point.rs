@@ -2,7 +2,7 @@
 //!
 //! | parameter   | type           | default   | meaning                          |
 //! |-------------|----------------|-----------|----------------------------------|
-//! | `intensity` | rgb / spectrum | —         | radiant intensity I (W/sr)       |
+//! | `intensity` | rgb / spectrum | 1         | radiant intensity I (W/sr)       |
 //! | `position`  | point          | (0, 0, 0) | position (or `to_world`'s origin)|
 //!
 //! ```xml
@@ -14,6 +14,7 @@
 //! because no ray can hit it.
 
 use super::{EmitterContext, EmitterModel, EmitterSample};
+use crate::params::{ColorKind, ParamError, Params};
 use crate::Rgb;
 use glam::{Vec2, Vec3};
 
@@ -24,6 +25,18 @@ pub struct PointLight {
     pub position: Vec3,
     /// Radiant intensity.
     pub intensity: Rgb,
+}
+
+impl PointLight {
+    /// Builds the light from its scene parameters.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let t = p.transform_or_identity("to_world")?;
+        let position = p.point("position")?.unwrap_or(Vec3::ZERO);
+        Ok(Self {
+            position: t.point(position),
+            intensity: p.color_or("intensity", ColorKind::Illuminant, Rgb::ONE)?,
+        })
+    }
 }
 
 impl EmitterModel for PointLight {
