@@ -141,6 +141,17 @@ impl Params for ObjParams<'_, '_, '_> {
         Ok(self.color(name, kind)?.map(Tex::Const))
     }
 
+    fn nested_textures(&mut self) -> Result<Vec<Tex>, ParamError> {
+        let kids: Vec<_> = self
+            .obj
+            .children_of(Category::Texture)
+            .map(|c| c.object.clone())
+            .collect();
+        kids.iter()
+            .map(|k| self.b.texture(k).map(Tex::Texture))
+            .collect()
+    }
+
     fn bsdfs(&mut self) -> Result<Vec<(u32, Bsdf)>, ParamError> {
         let kids: Vec<_> = self
             .obj

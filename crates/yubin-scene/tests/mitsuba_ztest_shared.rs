@@ -64,3 +64,84 @@ fn ztest_floating_sphere_directional_direct_shared() {
         "floating_sphere/refs/test_directional_ref_rgb",
     );
 }
+
+#[test]
+fn ztest_bsdf_spheres_textured_diffuse_path_shared() {
+    z_test_scene(
+        "ztest_bsdf_spheres_textured_diffuse_path_shared",
+        "bsdf_spheres/test_textured_diffuse_path.xml",
+        "bsdf_spheres/refs/test_textured_diffuse_ref_rgb",
+    );
+}
+
+#[test]
+fn ztest_bsdf_spheres_bumpmap_path_shared() {
+    z_test_scene(
+        "ztest_bsdf_spheres_bumpmap_path_shared",
+        "bsdf_spheres/test_bumpmap_path.xml",
+        "bsdf_spheres/refs/test_bumpmap_ref_rgb",
+    );
+}
+
+#[test]
+fn ztest_bsdf_spheres_normalmap_path_shared() {
+    z_test_scene(
+        "ztest_bsdf_spheres_normalmap_path_shared",
+        "bsdf_spheres/test_normalmap_path.xml",
+        "bsdf_spheres/refs/test_normalmap_ref_rgb",
+    );
+}
+
+#[test]
+fn ztest_bsdf_spheres_roughdielectric_path_shared() {
+    z_test_scene(
+        "ztest_bsdf_spheres_roughdielectric_path_shared",
+        "bsdf_spheres/test_roughdielectric_path.xml",
+        "bsdf_spheres/refs/test_roughdielectric_ref_rgb",
+    );
+}
+
+#[test]
+fn ztest_bsdf_spheres_roughplastic_linear_path_shared() {
+    z_test_scene(
+        "ztest_bsdf_spheres_roughplastic_linear_path_shared",
+        "bsdf_spheres/test_roughplastic_linear_path.xml",
+        "bsdf_spheres/refs/test_roughplastic_linear_ref_rgb",
+    );
+}
+
+#[test]
+fn ztest_bsdf_spheres_arealight_path_shared() {
+    z_test_scene(
+        "ztest_bsdf_spheres_arealight_path_shared",
+        "bsdf_spheres/test_arealight_path.xml",
+        "bsdf_spheres/refs/test_arealight_ref_rgb",
+    );
+}
+
+#[test]
+fn ztest_bsdf_spheres_constant_path_shared() {
+    z_test_scene(
+        "ztest_bsdf_spheres_constant_path_shared",
+        "bsdf_spheres/test_constant_path.xml",
+        "bsdf_spheres/refs/test_constant_ref_rgb",
+    );
+}
+
+#[test]
+fn ztest_bsdf_spheres_pointlight_path_shared() {
+    z_test_scene(
+        "ztest_bsdf_spheres_pointlight_path_shared",
+        "bsdf_spheres/test_pointlight_path.xml",
+        "bsdf_spheres/refs/test_pointlight_ref_rgb",
+    );
+}
+
+#[test]
+fn ztest_bsdf_spheres_envmap_path_shared() {
+    z_test_scene(
+        "ztest_bsdf_spheres_envmap_path_shared",
+        "bsdf_spheres/test_envmap_path.xml",
+        "bsdf_spheres/refs/test_envmap_ref_rgb",
+    );
+}
