@@ -21,6 +21,8 @@
 //! [`Materials`].
 
 mod diffuse;
+pub mod fresnel;
+
 mod twosided;
 
 pub use diffuse::Diffuse;
