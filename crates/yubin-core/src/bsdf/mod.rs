@@ -22,10 +22,12 @@
 
 mod diffuse;
 pub mod fresnel;
+mod plastic;
 
 mod twosided;
 
 pub use diffuse::Diffuse;
+pub use plastic::{fresnel_diffuse_reflectance, Plastic};
 pub use twosided::TwoSided;
 
 use crate::interaction::SurfaceInteraction;
@@ -158,6 +160,8 @@ pub enum Bsdf {
     Diffuse(Diffuse),
     /// `twosided`.
     TwoSided(TwoSided),
+    /// `plastic`.
+    Plastic(Plastic),
 }
 
 /// Builds a BSDF plugin from its parameters.
@@ -170,6 +174,7 @@ pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
     ("twosided", |p| {
         Ok(Bsdf::TwoSided(TwoSided::from_params(p)?))
     }),
+    ("plastic", |p| Ok(Bsdf::Plastic(Plastic::from_params(p)?))),
 ];
 
 macro_rules! dispatch {
@@ -177,6 +182,7 @@ macro_rules! dispatch {
         match $self {
             Bsdf::Diffuse($b) => $e,
             Bsdf::TwoSided($b) => $e,
+            Bsdf::Plastic($b) => $e,
         }
     };
 }
@@ -375,6 +381,7 @@ pub(crate) mod tests {
         let variants: Vec<Variant> = [
             diffuse::tests::test_variants(),
             twosided::tests::test_variants(),
+            plastic::tests::test_variants(),
         ]
         .into_iter()
         .flatten()
