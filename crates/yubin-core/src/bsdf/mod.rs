@@ -22,6 +22,7 @@
 
 mod diffuse;
 pub mod fresnel;
+pub mod microfacet;
 mod plastic;
 
 mod twosided;
