@@ -24,11 +24,12 @@ mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
 mod plastic;
-
+mod rough_plastic;
 mod twosided;
 
 pub use diffuse::Diffuse;
 pub use plastic::{fresnel_diffuse_reflectance, Plastic};
+pub use rough_plastic::{RoughPlastic, RoughTransmittance};
 pub use twosided::TwoSided;
 
 use crate::interaction::SurfaceInteraction;
@@ -163,6 +164,19 @@ pub enum Bsdf {
     TwoSided(TwoSided),
     /// `plastic`.
     Plastic(Plastic),
+    /// `roughplastic`.
+    RoughPlastic(RoughPlastic),
+}
+
+impl Bsdf {
+    /// Computes what the BSDF needs from the scene's tables, once, as it
+    /// is added to them ([`Materials::add_bsdf`]): `roughplastic`'s
+    /// transmittance tables.
+    pub fn prepare(&mut self, m: &mut Materials) {
+        if let Bsdf::RoughPlastic(b) = self {
+            b.prepare(m);
+        }
+    }
 }
 
 /// Builds a BSDF plugin from its parameters.
@@ -176,6 +190,9 @@ pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
         Ok(Bsdf::TwoSided(TwoSided::from_params(p)?))
     }),
     ("plastic", |p| Ok(Bsdf::Plastic(Plastic::from_params(p)?))),
+    ("roughplastic", |p| {
+        Ok(Bsdf::RoughPlastic(RoughPlastic::from_params(p)?))
+    }),
 ];
 
 macro_rules! dispatch {
@@ -184,6 +201,7 @@ macro_rules! dispatch {
             Bsdf::Diffuse($b) => $e,
             Bsdf::TwoSided($b) => $e,
             Bsdf::Plastic($b) => $e,
+            Bsdf::RoughPlastic($b) => $e,
         }
     };
 }
@@ -383,6 +401,7 @@ pub(crate) mod tests {
             diffuse::tests::test_variants(),
             twosided::tests::test_variants(),
             plastic::tests::test_variants(),
+            rough_plastic::tests::test_variants(),
         ]
         .into_iter()
         .flatten()

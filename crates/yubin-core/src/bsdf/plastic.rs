@@ -169,11 +169,15 @@ pub(super) fn relative_ior(p: &mut dyn Params) -> Result<f32, ParamError> {
 // (branch h2) and drop the short list below.
 fn ior(p: &mut dyn Params, name: &str, default: f32) -> Result<f32, ParamError> {
     let float_err = match p.float(name) {
-        Ok(v) => return Ok(v.unwrap_or(default)),
-        Err(e) => e,
+        Ok(Some(v)) => return Ok(v),
+        Ok(None) if !p.has(name) => return Ok(default),
+        Ok(None) => None,
+        Err(e) => Some(e),
     };
     let Ok(Some(s)) = p.string(name) else {
-        return Err(float_err);
+        return Err(
+            float_err.unwrap_or_else(|| p.param_error(name, "must be a number or an IOR name"))
+        );
     };
     // Values of Mitsuba's documented IOR table.
     let v = match s.as_str() {
@@ -222,7 +226,7 @@ impl BsdfModel for Plastic {
         let wi = square_to_cosine_hemisphere(u2);
         let p_diff = 1.0 - p_spec;
         let pdf = p_diff * cosine_hemisphere_pdf(wi);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         let f_i = fresnel_dielectric(wi.z, self.eta).0;
@@ -292,6 +296,29 @@ pub(crate) mod tests {
         assert!(close(fresnel_diffuse_reflectance(1.49), 0.09029996));
     }
 
+    #[test]
+    fn parameters() {
+        use crate::bsdf::microfacet::tests::MapParams;
+        let mut p = MapParams::new()
+            .string("int_ior", "bk7")
+            .float("ext_ior", 1.0)
+            .boolean("nonlinear", true)
+            .color("diffuse_reflectance", Rgb::new(0.1, 0.2, 0.3));
+        let b = Plastic::from_params(&mut p).unwrap();
+        assert!(p.unread().is_empty(), "{:?}", p.unread());
+        assert_eq!(b.eta, 1.5046);
+        assert!(b.nonlinear);
+        assert_eq!(b.diffuse_reflectance, Tex::Const(Rgb::new(0.1, 0.2, 0.3)));
+
+        let d = Plastic::from_params(&mut MapParams::new()).unwrap();
+        assert_eq!(d, Plastic::new(Rgb::splat(0.5), 1.49 / 1.000277, false));
+
+        let unknown = Plastic::from_params(&mut MapParams::new().string("int_ior", "bk8"));
+        assert!(unknown.unwrap_err().0.contains("bk8"));
+        let same = Plastic::from_params(&mut MapParams::new().float("int_ior", 1.000277));
+        assert!(same.unwrap_err().0.contains("differ"));
+    }
+
     /// Configurations for the table-driven tests in `bsdf/mod.rs`.
     pub(crate) fn test_variants() -> Vec<Variant> {
         let textured = {
@@ -328,15 +355,19 @@ pub(crate) mod tests {
         ]
     }
 
+    /// Configuration, wo, wi, eval, pdf, specular sample's pdf and weight.
+    type Case = (char, [f32; 3], [f32; 3], [f32; 3], f32, f32, f32);
+
     /// eval, pdf and the specular sample (u1 = 0) against Mitsuba 3.9.1
     /// (`scalar_rgb`; `mi.load_dict` of the same plastic, `si.wi` = our
     /// `wo`, `bsdf.eval/pdf(ctx, si, wi)`, `bsdf.sample(ctx, si, 0, ...)`).
     /// A: diffuse (0.2, 0.5, 0.9), polypropylene/air, linear.
     /// B: the same diffuse, bk7/air, nonlinear.
     #[test]
+    #[allow(clippy::excessive_precision)] // Mitsuba's printed values, verbatim
     fn values_match_mitsuba() {
         #[rustfmt::skip]
-        let cases: [(char, [f32; 3], [f32; 3], [f32; 3], f32, f32, f32); 6] = [
+        let cases: [Case; 6] = [
             ('A', [0.3, 0.2, 0.9], [-0.4, 0.1, 0.5], [4.9656134e-02, 1.2414034e-01, 2.2345258e-01], 2.2819354e-01, 7.0802875e-02, 5.5155742e-01),
             ('A', [0.95, -0.1, 0.08], [0.1, 0.3, 0.9], [2.3878265e-02, 5.9695661e-02, 1.0745218e-01], 7.3008314e-02, 7.5689137e-01, 8.2459259e-01),
             ('A', [0.0, 0.0, 1.0], [0.99, 0.0, 0.02], [1.4997285e-04, 3.7493213e-04, 6.7487778e-04], 5.9782593e-03, 7.0138119e-02, 5.5138057e-01),
