@@ -2,8 +2,10 @@
 //! read. BSDF and texture variants are small `Copy` values that refer to one
 //! another (a `twosided`'s children, a texturable parameter) by index in
 //! these tables, so every BSDF and texture method takes [`Materials`].
+//! Data a BSDF precomputes for itself (the layer tables of `roughplastic`)
+//! lives here too, computed when the BSDF is added ([`Materials::add_bsdf`]).
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, RoughTransmittance};
 use crate::texture::{TexImage, Texture};
 
 /// BSDFs, textures and texture images, by index.
@@ -15,14 +17,26 @@ pub struct Materials {
     pub textures: Vec<Texture>,
     /// Images read by textures.
     pub images: Vec<TexImage>,
+    /// Transmittance tables of rough dielectric layers (`roughplastic`),
+    /// shared by the BSDFs with the same interface.
+    pub rough_transmittance: Vec<RoughTransmittance>,
 }
 
 impl Materials {
     /// Tables holding only these BSDFs (for tests and simple scenes).
     pub fn with_bsdfs(bsdfs: Vec<Bsdf>) -> Self {
-        Self {
-            bsdfs,
-            ..Self::default()
+        let mut m = Self::default();
+        for b in bsdfs {
+            m.add_bsdf(b);
         }
+        m
+    }
+
+    /// Adds a BSDF, computing the tables it needs from the textures
+    /// already present (so add textures first); returns its index.
+    pub fn add_bsdf(&mut self, mut b: Bsdf) -> u32 {
+        b.prepare(self);
+        self.bsdfs.push(b);
+        self.bsdfs.len() as u32 - 1
     }
 }

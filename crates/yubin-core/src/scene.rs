@@ -564,8 +564,7 @@ impl SceneBuilder {
 
     /// Adds a BSDF; returns its index (for shapes and composite BSDFs).
     pub fn add_bsdf(&mut self, b: Bsdf) -> u32 {
-        self.materials.bsdfs.push(b);
-        self.materials.bsdfs.len() as u32 - 1
+        self.materials.add_bsdf(b)
     }
 
     /// Adds a texture; returns its index (for [`crate::texture::Tex::Texture`]).

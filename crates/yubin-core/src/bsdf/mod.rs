@@ -21,9 +21,15 @@
 //! [`Materials`].
 
 mod diffuse;
+pub mod fresnel;
+pub mod microfacet;
+mod plastic;
+mod rough_plastic;
 mod twosided;
 
 pub use diffuse::Diffuse;
+pub use plastic::{fresnel_diffuse_reflectance, Plastic};
+pub use rough_plastic::{RoughPlastic, RoughTransmittance};
 pub use twosided::TwoSided;
 
 use crate::interaction::SurfaceInteraction;
@@ -156,6 +162,21 @@ pub enum Bsdf {
     Diffuse(Diffuse),
     /// `twosided`.
     TwoSided(TwoSided),
+    /// `plastic`.
+    Plastic(Plastic),
+    /// `roughplastic`.
+    RoughPlastic(RoughPlastic),
+}
+
+impl Bsdf {
+    /// Computes what the BSDF needs from the scene's tables, once, as it
+    /// is added to them ([`Materials::add_bsdf`]): `roughplastic`'s
+    /// transmittance tables.
+    pub fn prepare(&mut self, m: &mut Materials) {
+        if let Bsdf::RoughPlastic(b) = self {
+            b.prepare(m);
+        }
+    }
 }
 
 /// Builds a BSDF plugin from its parameters.
@@ -168,6 +189,10 @@ pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
     ("twosided", |p| {
         Ok(Bsdf::TwoSided(TwoSided::from_params(p)?))
     }),
+    ("plastic", |p| Ok(Bsdf::Plastic(Plastic::from_params(p)?))),
+    ("roughplastic", |p| {
+        Ok(Bsdf::RoughPlastic(RoughPlastic::from_params(p)?))
+    }),
 ];
 
 macro_rules! dispatch {
@@ -175,6 +200,8 @@ macro_rules! dispatch {
         match $self {
             Bsdf::Diffuse($b) => $e,
             Bsdf::TwoSided($b) => $e,
+            Bsdf::Plastic($b) => $e,
+            Bsdf::RoughPlastic($b) => $e,
         }
     };
 }
@@ -373,6 +400,8 @@ pub(crate) mod tests {
         let variants: Vec<Variant> = [
             diffuse::tests::test_variants(),
             twosided::tests::test_variants(),
+            plastic::tests::test_variants(),
+            rough_plastic::tests::test_variants(),
         ]
         .into_iter()
         .flatten()

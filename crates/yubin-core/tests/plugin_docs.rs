@@ -1,0 +1,190 @@
+//! Generates `docs/plugins.md`, the plugin reference, from the `//!` header
+//! of every plugin file, and fails when the checked-in file is stale — the
+//! way Mitsuba builds its manual from its plugin docstrings.
+//!
+//! A plugin file is a file in `src/<family>/` whose header begins with its
+//! backticked scene type string and a colon (`` //! `diffuse`: ... ``).
+//! Files that document several plugins at once (a header with an XML
+//! snippet that does not begin that way, e.g. `filter/mod.rs`) are listed
+//! after the family's plugin files, headed by their path.
+//!
+//! Regenerate with `YUBIN_UPDATE_DOCS=1 cargo test -p yubin-core --test plugin_docs`.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Families in manual order: source folder and the XML tag that holds them.
+const FAMILIES: &[(&str, &str)] = &[
+    ("shape", "shape"),
+    ("bsdf", "bsdf"),
+    ("texture", "texture"),
+    ("light", "emitter"),
+    ("medium", "medium"),
+    ("phase", "phase"),
+    ("volume", "volume"),
+    ("camera", "sensor"),
+    ("filter", "rfilter"),
+    ("sampler", "sampler"),
+    ("integrator", "integrator"),
+];
+
+struct Entry {
+    /// The type string, or `None` for a file documenting several plugins.
+    name: Option<String>,
+    /// Path relative to `src/`.
+    file: String,
+    /// The header with `//!` stripped.
+    text: String,
+}
+
+/// The leading `//!` block of a source file, prefixes stripped.
+fn header(src: &str) -> String {
+    let mut out = String::new();
+    for line in src.lines() {
+        let Some(rest) = line.strip_prefix("//!") else {
+            break;
+        };
+        out.push_str(rest.strip_prefix(' ').unwrap_or(rest));
+        out.push('\n');
+    }
+    out
+}
+
+/// The type string a header begins with (`` `name`: ``).
+fn type_name(header: &str) -> Option<String> {
+    let rest = header.strip_prefix('`')?;
+    let (name, after) = rest.split_once('`')?;
+    let ok = !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_');
+    (ok && after.starts_with(':')).then(|| name.to_string())
+}
+
+fn entries(family_dir: &Path, family: &str) -> Vec<Entry> {
+    let Ok(dir) = std::fs::read_dir(family_dir) else {
+        return Vec::new();
+    };
+    let mut files: Vec<PathBuf> = dir
+        .map(|e| e.expect("readable directory entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "rs"))
+        .collect();
+    files.sort();
+    let mut out = Vec::new();
+    for path in files {
+        let src = std::fs::read_to_string(&path).expect("readable source file");
+        let text = header(&src);
+        let name = type_name(&text);
+        if name.is_none() && !text.contains("```xml") {
+            continue;
+        }
+        let file_name = path.file_name().expect("file name").to_string_lossy();
+        out.push(Entry {
+            name,
+            file: format!("{family}/{file_name}"),
+            text,
+        });
+    }
+    // Named plugins first, by name; multi-plugin files after, by path.
+    out.sort_by(|a, b| match (&a.name, &b.name) {
+        (Some(x), Some(y)) => x.cmp(y),
+        (Some(_), None) => std::cmp::Ordering::Less,
+        (None, Some(_)) => std::cmp::Ordering::Greater,
+        (None, None) => a.file.cmp(&b.file),
+    });
+    out
+}
+
+fn anchor(tag: &str, e: &Entry) -> String {
+    match &e.name {
+        Some(n) => format!("{tag}-{n}"),
+        None => {
+            let stem = e.file.rsplit('/').next().unwrap_or(&e.file);
+            format!("{tag}-{}", stem.trim_end_matches(".rs"))
+        }
+    }
+}
+
+fn generate(src: &Path) -> String {
+    let families: Vec<(&str, &str, Vec<Entry>)> = FAMILIES
+        .iter()
+        .map(|&(dir, tag)| (dir, tag, entries(&src.join(dir), dir)))
+        .filter(|(_, _, e)| !e.is_empty())
+        .collect();
+
+    let mut md = String::new();
+    md.push_str("# Plugin reference\n\n");
+    md.push_str(
+        "<!-- Generated from the `//!` header of every plugin file in \
+         `crates/yubin-core/src/<family>/`. Do not edit by hand: change the \
+         header and run `YUBIN_UPDATE_DOCS=1 cargo test -p yubin-core --test \
+         plugin_docs`. -->\n\n",
+    );
+    md.push_str(
+        "Every plugin a scene file can name, with its parameters and an XML \
+         snippet, as its source file documents it. This file is generated \
+         from those headers (`crates/yubin-core/tests/plugin_docs.rs`); to \
+         change it, edit the header and run\n\n\
+         ```sh\nYUBIN_UPDATE_DOCS=1 cargo test -p yubin-core --test plugin_docs\n```\n\n",
+    );
+    md.push_str("## Contents\n\n");
+    for (_, tag, list) in &families {
+        let _ = write!(md, "- [{tag}](#{tag}):");
+        for (i, e) in list.iter().enumerate() {
+            let sep = if i == 0 { " " } else { ", " };
+            let label = match &e.name {
+                Some(n) => format!("`{n}`"),
+                None => format!("`{}`", e.file),
+            };
+            let _ = write!(md, "{sep}[{label}](#{})", anchor(tag, e));
+        }
+        md.push('\n');
+    }
+    for (_, tag, list) in &families {
+        let _ = write!(md, "\n<a id=\"{tag}\"></a>\n\n## {tag}\n");
+        for e in list {
+            let title = match &e.name {
+                Some(n) => format!("`{n}`"),
+                None => format!("`{}` (several plugins)", e.file),
+            };
+            let _ = write!(
+                md,
+                "\n<a id=\"{}\"></a>\n\n### {title}\n\n*Source: `crates/yubin-core/src/{}`*\n\n{}",
+                anchor(tag, e),
+                e.file,
+                e.text
+            );
+        }
+    }
+    md
+}
+
+#[test]
+fn plugin_reference_is_up_to_date() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let generated = generate(&root.join("src"));
+    let doc = root.join("../../docs/plugins.md");
+    if std::env::var_os("YUBIN_UPDATE_DOCS").is_some() {
+        std::fs::write(&doc, &generated).expect("docs/plugins.md is writable");
+        return;
+    }
+    let current = std::fs::read_to_string(&doc).unwrap_or_default();
+    assert!(
+        current == generated,
+        "docs/plugins.md is stale (or missing): it no longer matches the `//!` \
+         headers of the plugin files. Regenerate it with\n    \
+         YUBIN_UPDATE_DOCS=1 cargo test -p yubin-core --test plugin_docs"
+    );
+}
+
+#[test]
+fn headers_parse() {
+    assert_eq!(type_name("`diffuse`: a\n").as_deref(), Some("diffuse"));
+    assert_eq!(type_name("`rough_x2`:\n").as_deref(), Some("rough_x2"));
+    assert_eq!(type_name("Pixel filters (`box`): x\n"), None);
+    assert_eq!(type_name("`Bvh` is fast\n"), None);
+    assert_eq!(
+        header("//! `a`: b\n//!\n//!  c\nuse x;\n//! d\n"),
+        "`a`: b\n\n c\n"
+    );
+}
