@@ -90,8 +90,11 @@ pub trait Params {
     /// referenced texture (built into the scene's texture table).
     fn texture(&mut self, name: &str, kind: ColorKind) -> Result<Option<Tex>, ParamError>;
     /// Every nested texture that is not a named parameter read otherwise
-    /// (e.g. `bumpmap`'s height, whatever its name), built, in order.
-    fn nested_textures(&mut self) -> Result<Vec<Tex>, ParamError>;
+    /// (e.g. `bumpmap`'s height, whatever its name), built, in order. A
+    /// front end without nested objects has none.
+    fn nested_textures(&mut self) -> Result<Vec<Tex>, ParamError> {
+        Ok(Vec::new())
+    }
     /// Every nested BSDF, built into the scene's BSDF table, in the order
     /// written: its index and (a copy of) what was built.
     fn bsdfs(&mut self) -> Result<Vec<(u32, crate::bsdf::Bsdf)>, ParamError>;

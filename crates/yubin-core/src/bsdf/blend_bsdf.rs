@@ -165,7 +165,12 @@ pub(crate) mod tests {
             ],
         );
         with_null.lossless = false; // lossless only from the front
-        vec![two_diffuse(0.0), two_diffuse(0.3), two_diffuse(1.0), with_null]
+        vec![
+            two_diffuse(0.0),
+            two_diffuse(0.3),
+            two_diffuse(1.0),
+            with_null,
+        ]
     }
 
     #[test]
@@ -173,6 +178,9 @@ pub(crate) mod tests {
         let v = &test_variants()[1];
         let a = albedo(&v.m, v.id, Vec3::new(0.1, 0.2, 0.9).normalize());
         let expected = Rgb::new(0.9, 0.1, 0.1) * 0.7 + Rgb::new(0.1, 0.1, 0.9) * 0.3;
-        assert!((a - expected).abs().max_element() < 2e-3, "{a} vs {expected}");
+        assert!(
+            (a - expected).abs().max_element() < 2e-3,
+            "{a} vs {expected}"
+        );
     }
 }

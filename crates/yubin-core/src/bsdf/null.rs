@@ -52,7 +52,14 @@ impl BsdfModel for Null {
         })
     }
 
-    fn eval(&self, _: &Materials, _: &BsdfContext, _: &SurfaceInteraction, _: Vec3, _: Vec3) -> Rgb {
+    fn eval(
+        &self,
+        _: &Materials,
+        _: &BsdfContext,
+        _: &SurfaceInteraction,
+        _: Vec3,
+        _: Vec3,
+    ) -> Rgb {
         Rgb::ZERO
     }
 

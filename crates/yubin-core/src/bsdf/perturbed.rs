@@ -1,8 +1,10 @@
 //! Shared by the BSDFs that replace the shading frame (`normalmap`,
 //! `bumpmap`): the nested BSDF is evaluated in a perturbed frame given in
-//! the coordinates of the original shading frame. Light arriving from one
-//! side of the perturbed surface but the other side of the original one is
-//! rejected (it would leak light through the surface), as in Mitsuba 3.
+//! the coordinates of the original shading frame. A direction on one side
+//! of the perturbed surface but the other side of the original one is
+//! rejected (it would leak light through the surface). Mitsuba 3 rejects
+//! such light directions but not such viewing directions; yubin rejects
+//! both, so a one-sided material stays black from behind.
 
 use super::{Bsdf, BsdfContext, BsdfModel, BsdfSample};
 use crate::interaction::SurfaceInteraction;
@@ -28,11 +30,11 @@ pub(super) fn eval(
     wo: Vec3,
     wi: Vec3,
 ) -> Rgb {
-    let wi_p = frame.to_local(wi);
-    if !consistent(wi, wi_p) {
+    let (wo_p, wi_p) = (frame.to_local(wo), frame.to_local(wi));
+    if !consistent(wi, wi_p) || !consistent(wo, wo_p) {
         return Rgb::ZERO;
     }
-    nested.eval(m, ctx, si, frame.to_local(wo), wi_p)
+    nested.eval(m, ctx, si, wo_p, wi_p)
 }
 
 /// `nested`'s density in `frame`.
@@ -46,11 +48,11 @@ pub(super) fn pdf(
     wo: Vec3,
     wi: Vec3,
 ) -> f32 {
-    let wi_p = frame.to_local(wi);
-    if !consistent(wi, wi_p) {
+    let (wo_p, wi_p) = (frame.to_local(wo), frame.to_local(wi));
+    if !consistent(wi, wi_p) || !consistent(wo, wo_p) {
         return 0.0;
     }
-    nested.pdf(m, ctx, si, frame.to_local(wo), wi_p)
+    nested.pdf(m, ctx, si, wo_p, wi_p)
 }
 
 /// A sample of `nested` in `frame`, returned in the original frame.
@@ -65,7 +67,11 @@ pub(super) fn sample(
     u1: f32,
     u2: Vec2,
 ) -> Option<BsdfSample> {
-    let s = nested.sample(m, ctx, si, frame.to_local(wo), u1, u2)?;
+    let wo_p = frame.to_local(wo);
+    if !consistent(wo, wo_p) {
+        return None;
+    }
+    let s = nested.sample(m, ctx, si, wo_p, u1, u2)?;
     let wi = frame.to_world(s.wi);
     consistent(wi, s.wi).then_some(BsdfSample { wi, ..s })
 }

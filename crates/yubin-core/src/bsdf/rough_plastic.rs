@@ -656,6 +656,7 @@ pub(crate) mod tests {
                 m,
                 id,
                 lossless: false,
+                reciprocal: true,
             }
         };
         let mut v: Vec<Variant> = [

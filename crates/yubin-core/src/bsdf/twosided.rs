@@ -181,6 +181,7 @@ pub(crate) mod tests {
                 m: t,
                 id: 2,
                 lossless: false,
+                reciprocal: true,
             },
             white,
         ]
