@@ -21,6 +21,9 @@
 //! [`Materials`].
 
 mod diffuse;
+pub mod fresnel;
+pub mod microfacet;
+
 mod twosided;
 
 pub use diffuse::Diffuse;
