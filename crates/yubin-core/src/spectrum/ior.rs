@@ -12,6 +12,7 @@
 
 use super::ior_table::CONDUCTORS;
 use super::Rgb;
+use crate::params::{ParamError, Params};
 
 /// Named dielectric IORs, in Mitsuba 3's order. Names are matched ignoring
 /// case.
@@ -77,6 +78,48 @@ pub fn dielectric_ior(name: &str) -> Option<f32> {
         .map(|&(_, v)| v)
 }
 
+/// Reads a dielectric's index of refraction `name` (`int_ior`, `ext_ior`):
+/// a float, or a name from [`DIELECTRIC_NAMES`] (or a number written as a
+/// string); `default` (a name) when absent. It must be positive.
+pub fn ior_from_params(p: &mut dyn Params, name: &str, default: &str) -> Result<f32, ParamError> {
+    let v = if !p.has(name) {
+        dielectric_ior(default).ok_or_else(|| p.param_error(name, "bad default"))?
+    } else {
+        match p.float(name) {
+            Ok(Some(v)) => v,
+            Ok(None) => {
+                dielectric_ior(default).ok_or_else(|| p.param_error(name, "bad default"))?
+            }
+            // Not a number: a material's name.
+            Err(not_float) => {
+                let Ok(Some(s)) = p.string(name) else {
+                    return Err(not_float);
+                };
+                match (s.trim().parse::<f32>(), dielectric_ior(s.trim())) {
+                    (Ok(v), _) | (_, Some(v)) => v,
+                    _ => {
+                        return Err(p.param_error(
+                            name,
+                            &format!(
+                                "unknown material \"{s}\" (known: {}; or give a number)",
+                                DIELECTRIC_NAMES.join(", ")
+                            ),
+                        ))
+                    }
+                }
+            }
+        }
+    };
+    if v > 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(p.param_error(
+            name,
+            &format!("an index of refraction must be positive, not {v}"),
+        ))
+    }
+}
+
 /// The names [`conductor_ior`] knows (case matters, as in Mitsuba, whose
 /// names are file names), for error messages.
 pub const CONDUCTOR_NAMES: &[&str] = &{
@@ -121,6 +164,35 @@ mod tests {
         // Mitsuba's default dielectric is bk7 inside air.
         let eta = dielectric_ior("bk7").unwrap() / dielectric_ior("air").unwrap();
         assert!((eta - 1.504_183).abs() < 1e-6, "{eta}");
+    }
+
+    #[test]
+    fn ior_parameters() {
+        use crate::testing::params::{MapParams, Value};
+        let mut p = MapParams::new()
+            .with("int_ior", Value::String("Water".into()))
+            .with("ext_ior", Value::Float(1.2))
+            .with("x", Value::String("1.7".into()));
+        assert_eq!(ior_from_params(&mut p, "int_ior", "bk7"), Ok(1.333));
+        assert_eq!(ior_from_params(&mut p, "ext_ior", "air"), Ok(1.2));
+        assert_eq!(ior_from_params(&mut p, "x", "air"), Ok(1.7));
+        assert_eq!(ior_from_params(&mut p, "absent", "air"), Ok(1.000_277));
+        assert!(p.unread().is_empty());
+        let mut p = MapParams::new()
+            .with("a", Value::String("glass".into()))
+            .with("b", Value::Float(0.0))
+            .with("c", Value::Float(-1.5))
+            .with("d", Value::Bool(true));
+        let e = ior_from_params(&mut p, "a", "bk7").unwrap_err().0;
+        assert!(
+            e.contains("unknown material \"glass\"") && e.contains("bk7, sodium chloride"),
+            "{e}"
+        );
+        for n in ["b", "c"] {
+            let e = ior_from_params(&mut p, n, "bk7").unwrap_err().0;
+            assert!(e.contains("must be positive"), "{e}");
+        }
+        assert!(ior_from_params(&mut p, "d", "bk7").is_err());
     }
 
     /// The table against the values Mitsuba 3.9.1 (`scalar_rgb`) uses:
