@@ -491,7 +491,6 @@ pub(crate) mod tests {
             self.bools.insert(k.into(), v);
             self
         }
-        #[allow(dead_code)] // for the BSDFs' own parameter tests
         pub(crate) fn color(mut self, k: &str, v: Rgb) -> Self {
             self.colors.insert(k.into(), v);
             self

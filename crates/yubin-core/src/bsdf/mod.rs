@@ -20,12 +20,16 @@
 //! parameters to textures by index, so each method takes the scene's
 //! [`Materials`].
 
+mod conductor;
 mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
+mod rough_conductor;
 mod twosided;
 
+pub use conductor::{Conductor, ConductorIor};
 pub use diffuse::Diffuse;
+pub use rough_conductor::RoughConductor;
 pub use twosided::TwoSided;
 
 use crate::interaction::SurfaceInteraction;
@@ -154,8 +158,12 @@ pub trait BsdfModel {
 /// A BSDF (closed enum; see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Bsdf {
+    /// `conductor`.
+    Conductor(Conductor),
     /// `diffuse`.
     Diffuse(Diffuse),
+    /// `roughconductor`.
+    RoughConductor(RoughConductor),
     /// `twosided`.
     TwoSided(TwoSided),
 }
@@ -166,7 +174,13 @@ pub type BsdfFromParams = fn(&mut dyn Params) -> Result<Bsdf, ParamError>;
 /// Every BSDF plugin: its scene type string and constructor. Adding a BSDF
 /// adds one line here (and its variant and dispatch arm below).
 pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
+    ("conductor", |p| {
+        Ok(Bsdf::Conductor(Conductor::from_params(p)?))
+    }),
     ("diffuse", |p| Ok(Bsdf::Diffuse(Diffuse::from_params(p)?))),
+    ("roughconductor", |p| {
+        Ok(Bsdf::RoughConductor(RoughConductor::from_params(p)?))
+    }),
     ("twosided", |p| {
         Ok(Bsdf::TwoSided(TwoSided::from_params(p)?))
     }),
@@ -175,7 +189,9 @@ pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
 macro_rules! dispatch {
     ($self:expr, $b:ident => $e:expr) => {
         match $self {
+            Bsdf::Conductor($b) => $e,
             Bsdf::Diffuse($b) => $e,
+            Bsdf::RoughConductor($b) => $e,
             Bsdf::TwoSided($b) => $e,
         }
     };
@@ -389,7 +405,9 @@ pub(crate) mod tests {
     #[test]
     fn every_bsdf_variant() {
         let variants: Vec<Variant> = [
+            conductor::tests::test_variants(),
             diffuse::tests::test_variants(),
+            rough_conductor::tests::test_variants(),
             twosided::tests::test_variants(),
         ]
         .into_iter()
