@@ -10,8 +10,9 @@
 //! References: pbrt-v4 §9.3 (the Fresnel equations, §9.3.6 conductors),
 //! Walter et al. 2007, "Microfacet Models for Refraction through Rough
 //! Surfaces" (refraction about a microfacet normal), and the closed-form
-//! conductor reflectance of Born & Wolf's *Principles of Optics* §14.2 as
-//! written out by Lagarde 2013, "Memo on Fresnel equations".
+//! reflectance of an absorbing medium (Born & Wolf, *Principles of
+//! Optics*, on metals) as written out by Lagarde 2013, "Memo on Fresnel
+//! equations".
 
 use crate::Rgb;
 use glam::Vec3;
@@ -67,8 +68,8 @@ pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> (f32, f32, f32, f32) {
 /// a = √((a² + b² + η² − k² − sin²θ) / 2), the s- and p-reflectances are
 /// R_s = (a² + b² − 2a cos θ + cos²θ) / (a² + b² + 2a cos θ + cos²θ) and
 /// R_p = R_s (cos²θ (a² + b²) − 2a cos θ sin²θ + sin⁴θ) /
-/// (cos²θ (a² + b²) + 2a cos θ sin²θ + sin⁴θ) (Born & Wolf §14.2; Lagarde
-/// 2013). η = 0, k = 1 gives a = 0 and R = 1 at every angle.
+/// (cos²θ (a² + b²) + 2a cos θ sin²θ + sin⁴θ) (Lagarde 2013). η = 0,
+/// k = 1 gives a = 0 and R = 1 at every angle.
 #[inline]
 pub fn fresnel_conductor(cos_theta_i: f32, eta: Rgb, k: Rgb) -> Rgb {
     let c = cos_theta_i.abs().min(1.0);

@@ -7,7 +7,7 @@
 //! | parameter        | type          | default    | meaning                                  |
 //! |------------------|---------------|------------|------------------------------------------|
 //! | `distribution`   | string        | `beckmann` | `beckmann` or `ggx`                      |
-//! | `alpha`          | float/texture | 0.1        | isotropic roughness (RMS slope √2·σ for Beckmann) |
+//! | `alpha`          | float/texture | 0.1        | isotropic roughness (for Beckmann, √2 × the RMS slope) |
 //! | `alpha_u`, `alpha_v` | float/texture | —      | anisotropic roughness along the tangents (both or neither; not with `alpha`) |
 //! | `sample_visible` | boolean       | true       | sample only the normals visible from `wo` |
 //!
@@ -491,7 +491,6 @@ pub(crate) mod tests {
             self.bools.insert(k.into(), v);
             self
         }
-        #[allow(dead_code)] // for the BSDFs' own parameter tests
         pub(crate) fn color(mut self, k: &str, v: Rgb) -> Self {
             self.colors.insert(k.into(), v);
             self

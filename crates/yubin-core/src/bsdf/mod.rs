@@ -22,6 +22,7 @@
 
 mod blend_bsdf;
 mod bump_map;
+mod conductor;
 mod dielectric;
 mod diffuse;
 pub mod fresnel;
@@ -31,6 +32,7 @@ mod normal_map;
 mod null;
 mod perturbed;
 mod plastic;
+mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
 mod thin_dielectric;
@@ -38,12 +40,14 @@ mod twosided;
 
 pub use blend_bsdf::BlendBsdf;
 pub use bump_map::BumpMap;
+pub use conductor::{Conductor, ConductorIor};
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use mask::Mask;
 pub use normal_map::NormalMap;
 pub use null::Null;
 pub use plastic::{fresnel_diffuse_reflectance, Plastic};
+pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::{RoughPlastic, RoughTransmittance};
 pub use thin_dielectric::ThinDielectric;
@@ -199,6 +203,10 @@ pub enum Bsdf {
     ThinDielectric(ThinDielectric),
     /// `roughdielectric`.
     RoughDielectric(RoughDielectric),
+    /// `conductor`.
+    Conductor(Conductor),
+    /// `roughconductor`.
+    RoughConductor(RoughConductor),
 }
 
 impl Bsdf {
@@ -244,6 +252,12 @@ pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
     ("roughdielectric", |p| {
         Ok(Bsdf::RoughDielectric(RoughDielectric::from_params(p)?))
     }),
+    ("conductor", |p| {
+        Ok(Bsdf::Conductor(Conductor::from_params(p)?))
+    }),
+    ("roughconductor", |p| {
+        Ok(Bsdf::RoughConductor(RoughConductor::from_params(p)?))
+    }),
 ];
 
 macro_rules! dispatch {
@@ -261,6 +275,8 @@ macro_rules! dispatch {
             Bsdf::Dielectric($b) => $e,
             Bsdf::ThinDielectric($b) => $e,
             Bsdf::RoughDielectric($b) => $e,
+            Bsdf::Conductor($b) => $e,
+            Bsdf::RoughConductor($b) => $e,
         }
     };
 }
@@ -511,6 +527,8 @@ pub(crate) mod tests {
             dielectric::tests::test_variants(),
             thin_dielectric::tests::test_variants(),
             rough_dielectric::tests::test_variants(),
+            conductor::tests::test_variants(),
+            rough_conductor::tests::test_variants(),
         ]
         .into_iter()
         .flatten()

@@ -44,6 +44,7 @@ use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::spectrum::ior::ior_from_params;
 use crate::texture::Tex;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
@@ -154,44 +155,14 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
 /// Reads `int_ior` and `ext_ior` (numbers or IOR names; defaults
 /// polypropylene and air) and returns their ratio.
 pub(super) fn relative_ior(p: &mut dyn Params) -> Result<f32, ParamError> {
-    let int_ior = ior(p, "int_ior", 1.49)?;
-    let ext_ior = ior(p, "ext_ior", 1.000277)?;
+    let int_ior = ior_from_params(p, "int_ior", "polypropylene")?;
+    let ext_ior = ior_from_params(p, "ext_ior", "air")?;
     if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
         return Err(p.error(&format!(
             "int_ior ({int_ior}) and ext_ior ({ext_ior}) must be positive and differ"
         )));
     }
     Ok(int_ior / ext_ior)
-}
-
-/// An index of refraction given as a float or as a material name.
-// TODO(merge): look names up with `crate::spectrum::ior::dielectric_ior`
-// (branch h2) and drop the short list below.
-fn ior(p: &mut dyn Params, name: &str, default: f32) -> Result<f32, ParamError> {
-    let float_err = match p.float(name) {
-        Ok(Some(v)) => return Ok(v),
-        Ok(None) if !p.has(name) => return Ok(default),
-        Ok(None) => None,
-        Err(e) => Some(e),
-    };
-    let Ok(Some(s)) = p.string(name) else {
-        return Err(
-            float_err.unwrap_or_else(|| p.param_error(name, "must be a number or an IOR name"))
-        );
-    };
-    // Values of Mitsuba's documented IOR table.
-    let v = match s.as_str() {
-        "vacuum" => 1.0,
-        "air" => 1.000277,
-        "water" => 1.3330,
-        "polypropylene" | "acrylic glass" => 1.49,
-        "bk7" => 1.5046,
-        "diamond" => 2.419,
-        _ => {
-            return Err(p.param_error(name, &format!("unknown index of refraction \"{s}\"")));
-        }
-    };
-    Ok(v)
 }
 
 impl BsdfModel for Plastic {
@@ -306,7 +277,7 @@ pub(crate) mod tests {
             .color("diffuse_reflectance", Rgb::new(0.1, 0.2, 0.3));
         let b = Plastic::from_params(&mut p).unwrap();
         assert!(p.unread().is_empty(), "{:?}", p.unread());
-        assert_eq!(b.eta, 1.5046);
+        assert_eq!(b.eta, crate::spectrum::ior::dielectric_ior("bk7").unwrap());
         assert!(b.nonlinear);
         assert_eq!(b.diffuse_reflectance, Tex::Const(Rgb::new(0.1, 0.2, 0.3)));
 

@@ -554,7 +554,10 @@ pub(crate) mod tests {
         assert_eq!(b.roughness.kind, MicrofacetType::Ggx);
         assert_eq!(b.roughness.alpha_u, Tex::value(0.4));
         assert!(!b.roughness.sample_visible);
-        assert_eq!(b.eta, 1.5046 / 1.000277);
+        assert_eq!(
+            b.eta,
+            crate::spectrum::ior::dielectric_ior("bk7").unwrap() / 1.000277
+        );
         assert_eq!(b.diffuse_reflectance, Tex::Texture(3));
         assert_eq!(b.transmittance, UNPREPARED);
 
