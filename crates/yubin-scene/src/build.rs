@@ -15,7 +15,7 @@
 //! differently (`stratified`, `multijitter`, `orthogonal`, `ldsampler`)
 //! render with the Owen-scrambled Sobol sampler, with a warning.
 
-use crate::desc::{Category, Object, SceneDesc, Spectrum, Value};
+use crate::desc::{Category, Object, SceneDesc};
 use crate::error::{Location, SceneError};
 use crate::image_io::read_texture;
 use crate::mesh::{obj::load_obj, ply::load_ply, MeshData};
@@ -35,7 +35,7 @@ use yubin_core::sampler::{Independent, Sampler, Sobol};
 use yubin_core::shape::{
     cube::cube_mesh_with, Cylinder, Disk, MeshShape, Rectangle, Shape, Sphere, TriangleMesh,
 };
-use yubin_core::spectrum::{sampled_spectrum_to_rgb, Rgb};
+use yubin_core::spectrum::Rgb;
 use yubin_core::{Scene, SceneBuilder};
 
 /// A scene ready to render, with what the file said about how.
@@ -149,50 +149,6 @@ fn unknown_type(obj: &Object, known: &str) -> SceneError {
         "unknown {} type \"{}\" (known: {known})",
         obj.category, obj.plugin_type
     ))
-}
-
-/// A colour parameter: reflectance-like (`bounded`, clamped to [0, 1] for
-/// spectra) or emission-like.
-fn color(obj: &Object, name: &str, default: Option<Rgb>, bounded: bool) -> Result<Rgb, SceneError> {
-    let value = obj.rgb_or_spectrum(name)?;
-    let rgb = match value {
-        None => {
-            return default.ok_or_else(|| {
-                obj.error(format!("{} needs the parameter \"{name}\"", obj.describe()))
-            })
-        }
-        Some(Value::Rgb(c)) => Rgb::from_array(*c),
-        Some(Value::Float(v)) => Rgb::splat(*v as f32),
-        Some(Value::Integer(v)) => Rgb::splat(*v as f32),
-        Some(Value::Spectrum(Spectrum::Constant(v))) => constant_spectrum_to_rgb(*v, bounded),
-        Some(Value::Spectrum(Spectrum::Sampled(s))) => sampled_spectrum_to_rgb(s, bounded),
-        Some(_) => unreachable_color(obj, name)?,
-    };
-    if !rgb.is_finite() || (bounded && rgb.min_element() < 0.0) {
-        return Err(SceneError::at(
-            obj.loc_of(name),
-            format!(
-                "parameter \"{name}\" of {} has an invalid value {rgb}",
-                obj.describe()
-            ),
-        ));
-    }
-    Ok(rgb)
-}
-
-fn unreachable_color(obj: &Object, name: &str) -> Result<Rgb, SceneError> {
-    Err(obj.param_error(name, "expected a colour"))
-}
-
-/// A constant spectrum in an RGB renderer: grey for reflectances; for
-/// emitters, the sRGB colour of an equal-energy spectrum (illuminant E),
-/// which is what Mitsuba 3's RGB variants produce.
-fn constant_spectrum_to_rgb(v: f32, bounded: bool) -> Rgb {
-    if bounded {
-        Rgb::splat(v)
-    } else {
-        Rgb::new(1.204_88, 0.948_229, 0.909_267) * v
-    }
 }
 
 fn transform_of(obj: &Object, name: &str) -> Result<Transform, SceneError> {
@@ -454,20 +410,7 @@ impl Builder<'_> {
         kind: ColorKind,
     ) -> Result<Rgb, ParamError> {
         let p = &mut ObjParams { obj, b: self };
-        match obj.plugin_type.as_str() {
-            "uniform" | "rawconstant" => {
-                let v = p.float_or("value", 1.0)?;
-                Ok(match (obj.plugin_type.as_str(), kind) {
-                    ("uniform", ColorKind::Illuminant) => {
-                        Rgb::new(1.204_88, 0.948_229, 0.909_267) * v
-                    }
-                    _ => Rgb::splat(v),
-                })
-            }
-            other => Err(p.error(&format!(
-                "spectrum type \"{other}\" is not supported yet (known: uniform, rawconstant)"
-            ))),
-        }
+        yubin_core::spectrum::plugin::spectrum_plugin_to_rgb(&obj.plugin_type, p, kind)
     }
 
     fn shape_bsdf(&mut self, obj: &Object) -> Result<Option<u32>, SceneError> {
@@ -488,7 +431,12 @@ impl Builder<'_> {
                 e.plugin_type
             )));
         }
-        Ok(Some(color(e, "radiance", None, false)?))
+        let e = e.clone();
+        let mut p = ObjParams { obj: &e, b: self };
+        let radiance = p
+            .color("radiance", ColorKind::Illuminant)?
+            .ok_or_else(|| p.error("needs the parameter \"radiance\""))?;
+        Ok(Some(radiance))
     }
 
     /// Builds a shape into group `group` (0: the world).

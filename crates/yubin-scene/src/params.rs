@@ -11,7 +11,7 @@ use crate::error::SceneError;
 use glam::{DMat4, Vec3};
 use yubin_core::bsdf::Bsdf;
 use yubin_core::params::{ColorKind, ParamError, Params};
-use yubin_core::spectrum::{sampled_spectrum_to_rgb, Rgb};
+use yubin_core::spectrum::{constant_spectrum_to_rgb, spectrum_to_rgb, Rgb};
 use yubin_core::texture::Tex;
 
 /// One object seen through [`Params`], with the builder that builds what it
@@ -26,16 +26,6 @@ pub(crate) fn to_param(e: SceneError) -> ParamError {
     ParamError(e.to_string())
 }
 
-/// A constant spectrum in an RGB renderer: that value in every channel,
-/// except as emission, where it is the sRGB colour of an equal-energy
-/// spectrum (illuminant E), which is what Mitsuba 3's RGB variants produce.
-fn constant_spectrum_to_rgb(v: f32, kind: ColorKind) -> Rgb {
-    match kind {
-        ColorKind::Illuminant => Rgb::new(1.204_88, 0.948_229, 0.909_267) * v,
-        ColorKind::Reflectance | ColorKind::Unbounded => Rgb::splat(v),
-    }
-}
-
 /// A colour property's value as RGB for its role.
 fn value_to_rgb(value: &Value, kind: ColorKind) -> Option<Rgb> {
     Some(match value {
@@ -43,9 +33,7 @@ fn value_to_rgb(value: &Value, kind: ColorKind) -> Option<Rgb> {
         Value::Float(v) => Rgb::splat(*v as f32),
         Value::Integer(v) => Rgb::splat(*v as f32),
         Value::Spectrum(Spectrum::Constant(v)) => constant_spectrum_to_rgb(*v, kind),
-        Value::Spectrum(Spectrum::Sampled(s)) => {
-            sampled_spectrum_to_rgb(s, kind == ColorKind::Reflectance)
-        }
+        Value::Spectrum(Spectrum::Sampled(s)) => spectrum_to_rgb(s, kind),
         _ => return None,
     })
 }

@@ -87,13 +87,12 @@ pub fn ior_from_params(p: &mut dyn Params, name: &str, default: &str) -> Result<
     } else {
         match p.float(name) {
             Ok(Some(v)) => v,
-            Ok(None) => {
-                dielectric_ior(default).ok_or_else(|| p.param_error(name, "bad default"))?
-            }
             // Not a number: a material's name.
-            Err(not_float) => {
+            not_float => {
                 let Ok(Some(s)) = p.string(name) else {
-                    return Err(not_float);
+                    return Err(not_float
+                        .err()
+                        .unwrap_or_else(|| p.param_error(name, "must be a number or a name")));
                 };
                 match (s.trim().parse::<f32>(), dielectric_ior(s.trim())) {
                     (Ok(v), _) | (_, Some(v)) => v,
