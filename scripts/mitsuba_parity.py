@@ -552,6 +552,7 @@ def cmd_ztest(args):
         proc = subprocess.run(cmd, capture_output=True, text=True)
         result["yubin_seconds"] = round(time.perf_counter() - t0, 2)
         if proc.returncode != 0 or not os.path.exists(out):
+            shutil.rmtree(out_dir, ignore_errors=True)
             msg = prep.unmap(first_error_line(proc.stderr + "\n" + proc.stdout))
             result.update(status="yubin-error", message=msg)
             print(f"yubin cannot load/render: {msg}")
@@ -592,6 +593,17 @@ def cmd_ztest(args):
               f"pixels outside: {rep['pixels_outside']} / {w * h}")
         print(f"  max |z| = {rep['max_z']:.3f}, min p = {rep['min_p']:.3g}, "
               f"mean-luminance bias {100 * bias:+.3f} %")
+        # Informative only (not part of pass/fail): the image-mean difference
+        # per channel against its standard deviation, treating pixels as
+        # independent with the reference's variance / spp. Small global biases
+        # that no single pixel reveals show up here (exact for a box filter;
+        # wider filters make var/spp too large but correlate neighbours).
+        d = (to_xyz(img) - to_xyz(ref)).reshape(-1, 3)
+        v = np.maximum(to_xyz(var), VARIANCE_FLOOR).reshape(-1, 3)
+        zmean = d.sum(axis=0) / np.sqrt(v.sum(axis=0) / spp)
+        result["image_mean_z_xyz"] = [float(x) for x in zmean]
+        print(f"  image-mean z (X, Y, Z; informative, pixels taken as independent): "
+              f"{zmean[0]:+.2f} {zmean[1]:+.2f} {zmean[2]:+.2f}")
         print(f"  sensitivity: a 3 % brighter image {'fails' if not brighter['passed'] else 'PASSES (weak test)'}"
               f" ({brighter['failures']} channel tests fail)")
         if args.z_png:
@@ -607,6 +619,12 @@ def cmd_reference(args):
     prep = PreparedScene(args)
     try:
         get_reference(args, prep)
+    except ToolError:
+        raise
+    except Exception as e:  # Mitsuba failed to load/render
+        print(f"Mitsuba failed: {prep.unmap(first_error_line(str(e)) or type(e).__name__)}",
+              file=sys.stderr)
+        return 2
     finally:
         prep.cleanup()
     return 0
