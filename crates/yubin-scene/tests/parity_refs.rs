@@ -26,8 +26,7 @@ fn parity(name: &str) {
     let refs = root.join("tests/refs");
     let read = |suffix: &str| {
         let path = refs.join(format!("{name}_{suffix}.exr"));
-        read_image(&path, ColorHandling::Raw)
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        read_image(&path, ColorHandling::Raw).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
     };
     let (ref_mean, ref_var) = (read("mean"), read("var"));
     let pixels = ref_mean.width * ref_mean.height;
