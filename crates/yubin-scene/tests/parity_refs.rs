@@ -1,0 +1,66 @@
+//! Per-pixel Z-tests of small scenes (`scenes/parity/*.xml`, 32×32) against
+//! Mitsuba 3 references committed in `tests/refs/` (mean and per-sample
+//! variance, made by `scripts/mitsuba-ref reference`; the commands are in
+//! `scripts/README.md`). The method is Mitsuba's `test_renders.py`, as in
+//! `mitsuba_ztest_shared.rs`: the yubin render uses ⌊2·10⁶ / pixels⌋ spp,
+//! seed 0, and is compared in XYZ with Šidák-corrected significance 0.01.
+//! Needs nothing outside the repository.
+
+mod common;
+
+use common::render_file;
+use std::path::Path;
+use yubin_core::testing::ztest::z_test;
+use yubin_scene::image_io::{read_image, ColorHandling, Image};
+
+fn rgb(img: &Image) -> Vec<f32> {
+    img.data
+        .chunks_exact(img.channels)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect()
+}
+
+fn parity(name: &str) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = root.join(format!("../../scenes/parity/{name}.xml"));
+    let refs = root.join("tests/refs");
+    let read = |suffix: &str| {
+        let path = refs.join(format!("{name}_{suffix}.exr"));
+        read_image(&path, ColorHandling::Raw).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    };
+    let (ref_mean, ref_var) = (read("mean"), read("var"));
+    let pixels = ref_mean.width * ref_mean.height;
+    let spp = (2_000_000 / pixels) as u32;
+    let out = render_file(&scene, &[], spp, 0);
+    let mean = out.image.select_channels(0..3);
+    assert_eq!(
+        (mean.width as usize, mean.height as usize),
+        (ref_mean.width, ref_mean.height),
+        "{name}: image size differs from the reference"
+    );
+    let (reference, variance) = (rgb(&ref_mean), rgb(&ref_var));
+    let report = z_test(&mean.data, spp, &reference, &variance, 0.01);
+    println!("{name}: {report:?}");
+    assert!(report.passed, "{name}: Z-test failed: {report:?}");
+    // The test must be able to fail: a 3 % brighter image is rejected.
+    let brighter: Vec<f32> = mean.data.iter().map(|v| v * 1.03).collect();
+    let report = z_test(&brighter, spp, &reference, &variance, 0.01);
+    assert!(
+        !report.passed,
+        "{name}: the Z-test cannot tell a 3 % bias: {report:?}"
+    );
+}
+
+/// Checkerboard texture, `twosided` diffuse, sphere, rectangle area light,
+/// point light, path tracing (4 bounces), gaussian filter.
+#[test]
+fn parity_checker_area() {
+    parity("checker_area");
+}
+
+/// Bitmap (sRGB PNG) texture, disk, envmap and directional light, path
+/// tracing (3 bounces), box filter.
+#[test]
+fn parity_envmap_bitmap() {
+    parity("envmap_bitmap");
+}
