@@ -84,7 +84,6 @@ fn ztest_bsdf_spheres_textured_diffuse_path_shared() {
 }
 
 #[test]
-#[ignore = "fails: yubin's bumpmap differs from Mitsuba's on this scene (~100 of 6912 channel tests); under investigation"]
 fn ztest_bsdf_spheres_bumpmap_path_shared() {
     z_test_scene(
         "ztest_bsdf_spheres_bumpmap_path_shared",
@@ -94,7 +93,6 @@ fn ztest_bsdf_spheres_bumpmap_path_shared() {
 }
 
 #[test]
-#[ignore = "fails: yubin's normalmap differs from Mitsuba's on this scene (~100 of 6912 channel tests); under investigation"]
 fn ztest_bsdf_spheres_normalmap_path_shared() {
     z_test_scene(
         "ztest_bsdf_spheres_normalmap_path_shared",

@@ -372,3 +372,74 @@ fn compare_with_a_missing_file_names_it() {
     let stderr = expect_failure(&dir, &["compare", "ref.exr", "missing.exr"], 1);
     assert_mentions(&stderr, &["missing.exr"]);
 }
+
+/// Material errors: each case is a sphere's BSDF, the text its error must
+/// contain, and a needle on the line it must name.
+#[test]
+fn material_errors_name_the_line_and_the_problem() {
+    let cases: &[(&str, &[&str], &str)] = &[
+        (
+            r#"<bsdf type="conductor"><string name="material" value="Unobtainium"/></bsdf>"#,
+            &["unknown conductor \"Unobtainium\"", "Au", "Cu"],
+            "Unobtainium",
+        ),
+        (
+            r#"<bsdf type="dielectric"><string name="int_ior" value="glasss"/></bsdf>"#,
+            &["\"glasss\"", "bk7", "water"],
+            "glasss",
+        ),
+        (
+            r#"<bsdf type="dielectric"><float name="int_ior" value="-1.5"/></bsdf>"#,
+            &["int_ior", "positive"],
+            "-1.5",
+        ),
+        (
+            r#"<bsdf type="roughconductor"><float name="alpha" value="0"/></bsdf>"#,
+            &["alpha"],
+            "name=\"alpha\"",
+        ),
+        (
+            r#"<bsdf type="roughconductor"><texture type="checkerboard" name="distribution"/></bsdf>"#,
+            &["distribution", "string"],
+            "name=\"distribution\"",
+        ),
+        (
+            r#"<bsdf type="diffuse"><string name="reflectance" value="red"/></bsdf>"#,
+            &["reflectance"],
+            "value=\"red\"",
+        ),
+        (
+            r#"<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>"#,
+            &["two nested BSDFs", "found 1"],
+            "blendbsdf",
+        ),
+        (
+            r#"<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="nowhere.png"/></texture></bsdf>"#,
+            &["nowhere.png", "searched"],
+            "nowhere.png",
+        ),
+    ];
+    for (i, (bsdf, needles, line_needle)) in cases.iter().enumerate() {
+        let dir = TempDir::new(&format!("material_error_{i}"));
+        let xml = scene(&format!(
+            "\t<shape type=\"sphere\">\n\t\t{bsdf}\n\t</shape>"
+        ));
+        let stderr = render_fails(&dir, &xml);
+        let line = line_of(&xml, line_needle);
+        let mut all = vec![format!("scene.xml:{line}")];
+        all.extend(needles.iter().map(|n| n.to_string()));
+        let all: Vec<&str> = all.iter().map(String::as_str).collect();
+        assert_mentions(&stderr, &all);
+    }
+}
+
+#[test]
+fn corrupt_texture_image_is_named() {
+    let dir = TempDir::new("corrupt_texture_image");
+    dir.write("broken.png", b"\x89PNG\r\n\x1a\nnot really a png");
+    let xml = scene(
+        "\t<shape type=\"sphere\">\n\t\t<bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"broken.png\"/></texture></bsdf>\n\t</shape>",
+    );
+    let stderr = render_fails(&dir, &xml);
+    assert_mentions(&stderr, &["broken.png"]);
+}

@@ -5,6 +5,15 @@
 //! rejected (it would leak light through the surface). Mitsuba 3 rejects
 //! such light directions but not such viewing directions; yubin rejects
 //! both, so a one-sided material stays black from behind.
+//!
+//! Light is also shadowed as in Conty Estevez et al. 2019, "Taming the
+//! Shadow Terminator" (and as Mitsuba 3 does): the perturbed normal is
+//! treated as the mean of a GGX distribution of roughness α² =
+//! min(1, tan²θ_d / 8), θ_d the angle between the perturbed and the
+//! original normal, and the light's value is scaled by that distribution's
+//! Smith term G1 for the light direction against the original normal. It
+//! darkens grazing light smoothly instead of cutting it off at the
+//! terminator.
 
 use super::{Bsdf, BsdfContext, BsdfModel, BsdfSample};
 use crate::interaction::SurfaceInteraction;
@@ -17,6 +26,22 @@ use glam::{Vec2, Vec3};
 #[inline]
 fn consistent(wi: Vec3, wi_perturbed: Vec3) -> bool {
     wi.z * wi_perturbed.z > 0.0
+}
+
+/// The shadowing term of the perturbation `n` (local) for light from `wi`.
+#[inline]
+fn terminator_shadowing(n: Vec3, wi: Vec3) -> f32 {
+    let tan2 = |c: f32| ((1.0 - c * c) / (c * c)).max(0.0);
+    let alpha2 = (0.125 * tan2(n.z)).min(1.0);
+    if alpha2 <= 0.0 {
+        return 1.0;
+    }
+    let g = 2.0 / (1.0 + (1.0 + alpha2 * tan2(wi.z)).sqrt());
+    if g.is_finite() {
+        g
+    } else {
+        0.0
+    }
 }
 
 /// `nested`'s value in `frame`.
@@ -34,7 +59,7 @@ pub(super) fn eval(
     if !consistent(wi, wi_p) || !consistent(wo, wo_p) {
         return Rgb::ZERO;
     }
-    nested.eval(m, ctx, si, wo_p, wi_p)
+    nested.eval(m, ctx, si, wo_p, wi_p) * terminator_shadowing(frame.n, wi)
 }
 
 /// `nested`'s density in `frame`.
@@ -73,5 +98,9 @@ pub(super) fn sample(
     }
     let s = nested.sample(m, ctx, si, wo_p, u1, u2)?;
     let wi = frame.to_world(s.wi);
-    consistent(wi, s.wi).then_some(BsdfSample { wi, ..s })
+    consistent(wi, s.wi).then(|| BsdfSample {
+        wi,
+        weight: s.weight * terminator_shadowing(frame.n, wi),
+        ..s
+    })
 }
