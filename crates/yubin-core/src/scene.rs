@@ -9,7 +9,7 @@
 //! once. Instances nest one level, as in Mitsuba.
 
 use crate::accel::{Bvh, PrimCost};
-use crate::bsdf::{Bsdf, Diffuse};
+use crate::bsdf::{Bsdf, BsdfModel, Diffuse};
 use crate::camera::{Camera, FovAxis, Perspective};
 use crate::film::Film;
 use crate::filter::Filter;
@@ -181,6 +181,9 @@ pub struct Scene {
     pub sampler: Sampler,
     groups: Vec<Group>,
     instances: Vec<Instance>,
+    /// Some shape's BSDF lets light through (`null`, `mask`): shadow rays
+    /// may have to look past their first hit.
+    has_pass_through: bool,
 }
 
 impl Scene {
@@ -396,6 +399,39 @@ impl Scene {
         self.occluded_in_group(&self.groups[0], ray)
     }
 
+    /// The fraction of light that gets along `ray` (a generalized shadow
+    /// ray): 0 when an opaque surface blocks it, else the product of what
+    /// the pass-through surfaces it crosses (`null`, `mask`) let through,
+    /// 0 as well when it would cross more than `max_crossings` of them.
+    /// Scenes without pass-through surfaces pay one any-hit query.
+    pub fn transmittance(&self, ray: &Ray, max_crossings: u32) -> f32 {
+        if !self.has_pass_through || max_crossings == 0 {
+            return if self.occluded(ray) { 0.0 } else { 1.0 };
+        }
+        let mut tr = 1.0;
+        let mut r = *ray;
+        for _ in 0..=max_crossings.min(MAX_CROSSINGS) {
+            let Some(si) = self.intersect(&r) else {
+                return tr;
+            };
+            tr *= self.bsdf_of(si.shape).pass_through(&self.materials, &si);
+            if tr <= 0.0 {
+                return 0.0;
+            }
+            // Continue past the surface; `d` is unnormalized in general, so
+            // the remaining interval is kept in units of `d`.
+            let next = si.spawn_ray(r.d);
+            r = Ray {
+                t_max: r.t_max - si.t,
+                ..next
+            };
+            if r.t_max <= r.t_min {
+                return tr;
+            }
+        }
+        0.0
+    }
+
     /// The BSDF of a shape.
     #[inline]
     pub fn bsdf_of(&self, shape: u32) -> &Bsdf {
@@ -431,6 +467,9 @@ impl Scene {
         }
     }
 }
+
+/// The most pass-through surfaces one shadow ray looks past.
+const MAX_CROSSINGS: u32 = 256;
 
 /// The ray in an instance's object space; the direction is not
 /// normalized, so distances along it equal world distances.
@@ -834,10 +873,16 @@ impl SceneBuilder {
             .filter(|(_, e)| e.is_environment())
             .map(|(i, _)| i as u32)
             .collect();
+        let has_pass_through = self.shape_info.iter().any(|info| {
+            let b = &self.materials.bsdfs[info.bsdf as usize];
+            b.flags(&self.materials)
+                .intersects(crate::bsdf::BsdfFlags::NULL)
+        });
         Ok(Scene {
             meshes: self.meshes,
             shapes: self.shapes,
             shape_info: self.shape_info,
+            has_pass_through,
             materials: self.materials,
             emitters: self.emitters,
             environment_emitters,

@@ -210,6 +210,36 @@ pub enum Bsdf {
 }
 
 impl Bsdf {
+    /// The fraction of light that passes straight through the surface at
+    /// `si` (for generalized shadow rays): 1 for `null`, 1 − α for `mask`,
+    /// blended by `blendbsdf`, per side for `twosided`; 0 for surfaces that
+    /// scatter or refract (`thindielectric`'s straight transmission is a
+    /// lobe of a glass, not a hole, and stays opaque to shadow rays, as in
+    /// Mitsuba).
+    pub fn pass_through(&self, m: &Materials, si: &SurfaceInteraction) -> f32 {
+        match self {
+            Bsdf::Null(_) => 1.0,
+            Bsdf::Mask(b) => {
+                let alpha = b.alpha(m, si);
+                (1.0 - alpha) + alpha * m.bsdfs[b.nested as usize].pass_through(m, si)
+            }
+            Bsdf::BlendBsdf(b) => {
+                let w = b.weight.eval_1(m, si).clamp(0.0, 1.0);
+                let [x, y] = b.bsdfs.map(|i| m.bsdfs[i as usize].pass_through(m, si));
+                x * (1.0 - w) + y * w
+            }
+            Bsdf::TwoSided(t) => {
+                let side = if si.wo.dot(si.n) >= 0.0 {
+                    t.front
+                } else {
+                    t.back
+                };
+                m.bsdfs[side as usize].pass_through(m, si)
+            }
+            _ => 0.0,
+        }
+    }
+
     /// Computes what the BSDF needs from the scene's tables, once, as it
     /// is added to them ([`Materials::add_bsdf`]): `roughplastic`'s
     /// transmittance tables.

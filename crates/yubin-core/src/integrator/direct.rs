@@ -61,7 +61,7 @@ impl Integrator for DirectIntegrator {
             for _ in 0..self.emitter_samples {
                 // The ratio ne/nb turns the count-weighted power heuristic
                 // into the one-sample form sample_light computes.
-                l += sample_light(scene, &si, bsdf, wo, sampler, ne / nb.max(1e-9)) / ne;
+                l += sample_light(scene, &si, bsdf, wo, sampler, ne / nb.max(1e-9), 0) / ne;
             }
         }
         let ctx = BsdfContext::default();

@@ -109,8 +109,10 @@ pub(crate) fn surface_emission(
 }
 
 /// One light sample at `si` with MIS against the BSDF: the contribution
-/// f · Li · w / pdf (before path throughput), with `bsdf_weight` scaling
-/// the BSDF density in the heuristic (sample-count ratios).
+/// f · Li · T · w / pdf (before path throughput), with `light_count_ratio`
+/// scaling the light density in the heuristic (sample-count ratios) and T
+/// the transmittance of the shadow ray through at most `max_crossings`
+/// pass-through surfaces.
 pub(crate) fn sample_light(
     scene: &Scene,
     si: &SurfaceInteraction,
@@ -118,6 +120,7 @@ pub(crate) fn sample_light(
     wo_local: Vec3,
     sampler: &mut SampleStream,
     light_count_ratio: f32,
+    max_crossings: u32,
 ) -> Rgb {
     use crate::bsdf::{BsdfContext, BsdfModel};
     use crate::light::EmitterModel;
@@ -140,7 +143,8 @@ pub(crate) fn sample_light(
     } else {
         si.spawn_ray(ls.wi)
     };
-    if scene.occluded(&shadow) {
+    let tr = scene.transmittance(&shadow, max_crossings);
+    if tr <= 0.0 {
         return Rgb::ZERO;
     }
     let light_pdf = ls.pdf * pick_pdf;
@@ -150,5 +154,5 @@ pub(crate) fn sample_light(
         let bsdf_pdf = bsdf.pdf(&scene.materials, &ctx, si, wo_local, wi_local);
         power_heuristic(light_pdf * light_count_ratio, bsdf_pdf)
     };
-    f * ls.radiance * (w / light_pdf)
+    f * ls.radiance * (tr * w / light_pdf)
 }

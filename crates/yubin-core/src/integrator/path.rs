@@ -50,7 +50,11 @@ impl Integrator for PathIntegrator {
         let mut ray = *camera_ray;
         // Density of the BSDF sample that produced `ray`; None for camera
         // rays and delta lobes (no MIS: the light could not sample them).
+        // Crossing a pass-through surface keeps it, with `mis_origin`, the
+        // vertex that sampled it: that vertex's light samples reach the same
+        // emitters through the same surfaces.
         let mut prev_pdf: Option<f32> = None;
+        let mut mis_origin = ray.o;
         // Number of segments traced so far minus one (0 at the first hit).
         let mut depth: u32 = 0;
         loop {
@@ -61,7 +65,7 @@ impl Integrator for PathIntegrator {
                 break;
             };
             if !(depth == 0 && self.hide_emitters) {
-                l += beta * surface_emission(scene, &si, ray.o, prev_pdf);
+                l += beta * surface_emission(scene, &si, mis_origin, prev_pdf);
             }
             if self.max_depth >= 0 && depth + 1 >= self.max_depth as u32 {
                 break;
@@ -69,7 +73,15 @@ impl Integrator for PathIntegrator {
             let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
             if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) {
-                l += beta * sample_light(scene, &si, bsdf, wo, sampler, 1.0);
+                // The light sample's path may cross as many pass-through
+                // surfaces as the BSDF sample's path could: each crossing
+                // counts as a bounce (as in Mitsuba), and the last one must
+                // still leave room for the segment that reaches the light.
+                let crossings = match self.max_depth {
+                    d if d < 0 => u32::MAX,
+                    d => (d as u32).saturating_sub(depth + 2),
+                };
+                l += beta * sample_light(scene, &si, bsdf, wo, sampler, 1.0, crossings);
             }
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
@@ -78,7 +90,10 @@ impl Integrator for PathIntegrator {
             };
             beta *= bs.weight;
             eta2 *= bs.eta * bs.eta;
-            prev_pdf = (!bs.sampled.intersects(BsdfFlags::DELTA)).then_some(bs.pdf);
+            if bs.sampled != BsdfFlags::NULL {
+                prev_pdf = (!bs.sampled.intersects(BsdfFlags::DELTA)).then_some(bs.pdf);
+                mis_origin = si.p;
+            }
             ray = si.spawn_ray(si.to_world(bs.wi));
             depth += 1;
             if depth >= self.rr_depth {
