@@ -104,6 +104,10 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
                 child.used.set(true);
                 b.emitter(obj)?;
             }
+            // Declared to be referenced: built where a `<ref>` uses it.
+            Category::Texture | Category::Spectrum if obj.id.is_some() => {
+                child.used.set(true);
+            }
             _ => {}
         }
     }
@@ -252,6 +256,13 @@ impl Builder<'_> {
                 "near_clip",
                 format!("clip planes must satisfy 0 < near < far (near {near}, far {far})"),
             ));
+        }
+        // Every projective camera of Mitsuba reads `focus_distance`; a
+        // pinhole has no focus, so it only has to be a valid distance.
+        if let Some(d) = obj.float("focus_distance")? {
+            if !is_positive(d) {
+                return Err(obj.param_error("focus_distance", "must be positive"));
+            }
         }
         let to_world = transform_of(obj, "to_world")?;
         // Mitsuba's to_world may carry a scale; the camera uses its rigid part.

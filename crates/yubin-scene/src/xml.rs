@@ -1723,4 +1723,14 @@ mod tests {
         ));
         assert!(err.contains("reference cycle"), "{err}");
     }
+
+    #[test]
+    fn top_level_textures_are_built_where_referenced() {
+        let text = scene(
+            r#"<texture type="checkerboard" id="checks"/>
+               <shape type="sphere"><bsdf type="diffuse"><ref name="reflectance" id="checks"/></bsdf></shape>"#,
+        );
+        let loaded = crate::build::load_scene_str(&text, Path::new("scene.xml"), &[]).unwrap();
+        assert_eq!(loaded.scene.materials.textures.len(), 1);
+    }
 }

@@ -21,6 +21,10 @@ pub enum Value {
     String(String),
     /// A colour (also what a float is as a colour).
     Rgb(Rgb),
+    /// A texture, by index.
+    Texture(u32),
+    /// An image file already in the scene's image table, by index.
+    Image(u32),
 }
 
 /// Named values and which of them were read.
@@ -39,6 +43,31 @@ impl MapParams {
     pub fn with(mut self, name: &str, v: Value) -> Self {
         self.entries.push((name.to_string(), v, false));
         self
+    }
+
+    /// Adds a float parameter.
+    pub fn float(self, name: &str, v: f32) -> Self {
+        self.with(name, Value::Float(v))
+    }
+
+    /// Adds a string parameter.
+    pub fn string(self, name: &str, v: &str) -> Self {
+        self.with(name, Value::String(v.to_string()))
+    }
+
+    /// Adds a boolean parameter.
+    pub fn boolean(self, name: &str, v: bool) -> Self {
+        self.with(name, Value::Bool(v))
+    }
+
+    /// Adds a colour parameter.
+    pub fn color(self, name: &str, v: Rgb) -> Self {
+        self.with(name, Value::Rgb(v))
+    }
+
+    /// Adds a texture parameter (a texture index).
+    pub fn texture(self, name: &str, index: u32) -> Self {
+        self.with(name, Value::Texture(index))
     }
 
     /// Names of parameters nobody read.
@@ -124,7 +153,13 @@ impl Params for MapParams {
         }
     }
     fn texture(&mut self, name: &str, kind: ColorKind) -> Result<Option<Tex>, ParamError> {
-        Ok(self.color(name, kind)?.map(Tex::Const))
+        if let Some(e) = self.entries.iter_mut().find(|e| e.0 == name) {
+            if let Value::Texture(t) = e.1 {
+                e.2 = true;
+                return Ok(Some(Tex::Texture(t)));
+            }
+        }
+        Ok(Params::color(self, name, kind)?.map(Tex::Const))
     }
     fn bsdfs(&mut self) -> Result<Vec<(u32, Bsdf)>, ParamError> {
         Ok(Vec::new())
@@ -132,7 +167,8 @@ impl Params for MapParams {
     fn image(&mut self, name: &str) -> Result<Option<u32>, ParamError> {
         match self.take(name) {
             None => Ok(None),
-            Some(_) => Err(self.wrong(name, "nothing (images are not supported here)")),
+            Some(Value::Image(i)) => Ok(Some(i)),
+            Some(_) => Err(self.wrong(name, "an image")),
         }
     }
     fn mark_ignored(&mut self, name: &str) {
