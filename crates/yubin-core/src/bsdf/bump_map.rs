@@ -26,14 +26,13 @@
 //! with the dn/du terms dropped). Light on opposite sides of the original
 //! and the perturbed surface is rejected. Mitsuba 3's `bumpmap`.
 
-use super::{perturbed, Bsdf, BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::perturbed;
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::math::Frame;
 use crate::params::{ParamError, Params};
 use crate::texture::Tex;
-use crate::Rgb;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// A bump-mapped BSDF.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -91,59 +90,19 @@ impl BumpMap {
         }
         Frame::from_normal_and_tangent(si.to_local(np), si.to_local(dpdu))
     }
-
-    fn nested<'m>(&self, m: &'m Materials) -> &'m Bsdf {
-        &m.bsdfs[self.nested as usize]
-    }
 }
 
-impl BsdfModel for BumpMap {
-    fn flags(&self, m: &Materials) -> BsdfFlags {
-        self.nested(m).flags(m)
-    }
-
-    fn sample(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        u1: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
-        perturbed::sample(&self.frame(m, si), self.nested(m), m, ctx, si, wo, u1, u2)
-    }
-
-    fn eval(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
-        perturbed::eval(&self.frame(m, si), self.nested(m), m, ctx, si, wo, wi)
-    }
-
-    fn pdf(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
-        perturbed::pdf(&self.frame(m, si), self.nested(m), m, ctx, si, wo, wi)
-    }
-}
+perturbed::perturbed_bsdf!(BumpMap);
 
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{flat_si, Variant};
+    use crate::bsdf::Bsdf;
     use crate::bsdf::Diffuse;
     use crate::texture::image::ImageData;
     use crate::texture::{Bitmap, FilterType, TexImage, Texture, WrapMode};
+    use crate::Rgb;
 
     /// A diffuse surface bumped by a ramp h = slope · u (over one tile).
     fn ramp(slope: f32) -> Variant {

@@ -24,14 +24,13 @@
 //! maps baked for ∂p/∂u-aligned tangents (Cohen et al. 1998, "Appearance-
 //! preserving simplification").
 
-use super::{perturbed, Bsdf, BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::perturbed;
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::math::Frame;
 use crate::params::{ColorKind, ParamError, Params};
 use crate::texture::Tex;
-use crate::Rgb;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// A normal-mapped BSDF.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,57 +67,17 @@ impl NormalMap {
             .unwrap_or(Vec3::Z);
         Frame::from_normal_and_tangent(n, si.to_local(si.dpdu))
     }
-
-    fn nested<'m>(&self, m: &'m Materials) -> &'m Bsdf {
-        &m.bsdfs[self.nested as usize]
-    }
 }
 
-impl BsdfModel for NormalMap {
-    fn flags(&self, m: &Materials) -> BsdfFlags {
-        self.nested(m).flags(m)
-    }
-
-    fn sample(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        u1: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
-        perturbed::sample(&self.frame(m, si), self.nested(m), m, ctx, si, wo, u1, u2)
-    }
-
-    fn eval(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
-        perturbed::eval(&self.frame(m, si), self.nested(m), m, ctx, si, wo, wi)
-    }
-
-    fn pdf(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
-        perturbed::pdf(&self.frame(m, si), self.nested(m), m, ctx, si, wo, wi)
-    }
-}
+perturbed::perturbed_bsdf!(NormalMap);
 
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{flat_si, Variant};
     use crate::bsdf::Diffuse;
+    use crate::bsdf::{Bsdf, BsdfContext, BsdfModel};
+    use crate::Rgb;
 
     fn tilted(n: Vec3) -> Vec<Bsdf> {
         vec![

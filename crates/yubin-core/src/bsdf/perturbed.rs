@@ -104,3 +104,53 @@ pub(super) fn sample(
         ..s
     })
 }
+
+/// Implements [`BsdfModel`] for a BSDF that evaluates the nested BSDF
+/// `self.nested` in the frame `self.frame(m, si)`.
+macro_rules! perturbed_bsdf {
+    ($t:ty) => {
+        impl $crate::bsdf::BsdfModel for $t {
+            fn flags(&self, m: &Materials) -> $crate::bsdf::BsdfFlags {
+                m.bsdfs[self.nested as usize].flags(m)
+            }
+
+            fn sample(
+                &self,
+                m: &Materials,
+                ctx: &$crate::bsdf::BsdfContext,
+                si: &SurfaceInteraction,
+                wo: glam::Vec3,
+                u1: f32,
+                u2: glam::Vec2,
+            ) -> Option<$crate::bsdf::BsdfSample> {
+                let nested = &m.bsdfs[self.nested as usize];
+                $crate::bsdf::perturbed::sample(&self.frame(m, si), nested, m, ctx, si, wo, u1, u2)
+            }
+
+            fn eval(
+                &self,
+                m: &Materials,
+                ctx: &$crate::bsdf::BsdfContext,
+                si: &SurfaceInteraction,
+                wo: glam::Vec3,
+                wi: glam::Vec3,
+            ) -> $crate::Rgb {
+                let nested = &m.bsdfs[self.nested as usize];
+                $crate::bsdf::perturbed::eval(&self.frame(m, si), nested, m, ctx, si, wo, wi)
+            }
+
+            fn pdf(
+                &self,
+                m: &Materials,
+                ctx: &$crate::bsdf::BsdfContext,
+                si: &SurfaceInteraction,
+                wo: glam::Vec3,
+                wi: glam::Vec3,
+            ) -> f32 {
+                let nested = &m.bsdfs[self.nested as usize];
+                $crate::bsdf::perturbed::pdf(&self.frame(m, si), nested, m, ctx, si, wo, wi)
+            }
+        }
+    };
+}
+pub(super) use perturbed_bsdf;
