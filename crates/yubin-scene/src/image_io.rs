@@ -137,48 +137,48 @@ pub fn read_image(path: &Path, color: ColorHandling) -> Result<Image, SceneError
 /// per texel at lookup, unless the texture is `raw`); EXR, HDR and PFM are
 /// linear floats.
 pub fn read_texture(path: &Path) -> Result<TexImage, SceneError> {
-    let (img, data, encoded) = if has_exr_magic(path)? {
+    let (width, height, channels, data, encoded) = if has_exr_magic(path)? {
         let img = read_exr(path)?;
-        let data = ImageData::F32(img.data.clone());
-        (img, data, false)
+        (
+            img.width,
+            img.height,
+            img.channels,
+            ImageData::F32(img.data),
+            false,
+        )
     } else if has_pfm_magic(path)? {
         let img = read_pfm(path)?;
-        (img.clone(), ImageData::F32(img.data), false)
+        (
+            img.width,
+            img.height,
+            img.channels,
+            ImageData::F32(img.data),
+            false,
+        )
     } else {
         let decoded = decode_with_image_crate(path)?;
-        let bytes = matches!(
-            decoded.color(),
+        let (w, h) = (decoded.width() as usize, decoded.height() as usize);
+        let channels = usize::from(decoded.color().channel_count());
+        match decoded.color() {
+            // Kept as decoded: no float copy, not even for a moment.
             image::ColorType::L8
-                | image::ColorType::La8
-                | image::ColorType::Rgb8
-                | image::ColorType::Rgba8
-        );
-        let img = dynamic_to_linear(&decoded, ColorHandling::Raw);
-        let is_float = matches!(
-            decoded.color(),
-            image::ColorType::Rgb32F | image::ColorType::Rgba32F
-        );
-        if bytes {
-            (img, ImageData::U8(decoded.into_bytes()), true)
-        } else {
-            let data = ImageData::F32(img.data.clone());
-            (img, data, !is_float)
+            | image::ColorType::La8
+            | image::ColorType::Rgb8
+            | image::ColorType::Rgba8 => {
+                (w, h, channels, ImageData::U8(decoded.into_bytes()), true)
+            }
+            color => {
+                let is_float =
+                    matches!(color, image::ColorType::Rgb32F | image::ColorType::Rgba32F);
+                let img = dynamic_to_linear(&decoded, ColorHandling::Raw);
+                (w, h, channels, ImageData::F32(img.data), !is_float)
+            }
         }
     };
-    TexImage::new(
-        img.width as u32,
-        img.height as u32,
-        img.channels as u32,
-        data,
-        encoded,
-    )
-    .ok_or_else(|| {
+    TexImage::new(width as u32, height as u32, channels as u32, data, encoded).ok_or_else(|| {
         SceneError::file(
             path,
-            format!(
-                "unusable texture image ({}x{}, {} channels)",
-                img.width, img.height, img.channels
-            ),
+            format!("unusable texture image ({width}x{height}, {channels} channels)"),
         )
     })
 }
