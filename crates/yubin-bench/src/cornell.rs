@@ -1,7 +1,8 @@
 //! `yubin-bench cornell`: yubin against Mitsuba 3 on a scene file.
 //!
 //! ```text
-//! cargo run --profile dist -p yubin-bench -- cornell [--spp 256] [--scene PATH] [--skip-mitsuba]
+//! cargo run --profile dist -p yubin-bench -- cornell [--spp 256] [--scene PATH]
+//!     [--ref PATH] [--variants scalar_rgb,llvm_ad_rgb] [--skip-mitsuba]
 //! ```
 //!
 //! Renders a scene (default: the Bitterli Cornell box from
@@ -9,8 +10,9 @@
 //! (`scalar_rgb` and `llvm_ad_rgb`, through `scripts/mitsuba-ref`) one after
 //! the other on the same machine, and prints a markdown table of wall
 //! times (scene load + render) and their ratios to yubin, plus each
-//! image's relMSE against the reference beside the scene
-//! (`TungstenRender.exr`) when there is one.
+//! image's relMSE against a reference: `--ref`, else the one beside the
+//! scene (`TungstenRender.exr`) when there is one. `--variants` picks the
+//! Mitsuba variants.
 
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
@@ -33,16 +35,25 @@ pub fn run(args: &[String]) -> Result<()> {
     let mut spp = 256u32;
     let mut scene = repo_root().join("../shared/assets/cornell-box-bitterli/scene_v3.xml");
     let mut skip_mitsuba = false;
+    let mut reference_path = None;
+    let mut variants = vec!["scalar_rgb".to_string(), "llvm_ad_rgb".to_string()];
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
             "--spp" => spp = it.next().context("--spp needs a value")?.parse()?,
             "--scene" => scene = PathBuf::from(it.next().context("--scene needs a value")?),
             "--skip-mitsuba" => skip_mitsuba = true,
+            "--ref" => {
+                reference_path = Some(PathBuf::from(it.next().context("--ref needs a value")?))
+            }
+            "--variants" => {
+                let list = it.next().context("--variants needs a value")?;
+                variants = list.split(',').map(str::to_string).collect();
+            }
             other => bail!("unknown option {other}"),
         }
     }
-    let reference = scene.with_file_name("TungstenRender.exr");
+    let reference = reference_path.unwrap_or_else(|| scene.with_file_name("TungstenRender.exr"));
     let reference = reference
         .exists()
         .then(|| read_image(&reference, ColorHandling::Raw))
@@ -76,7 +87,7 @@ pub fn run(args: &[String]) -> Result<()> {
     eprintln!("yubin: {wall:.1} s");
 
     if !skip_mitsuba {
-        for variant in ["scalar_rgb", "llvm_ad_rgb"] {
+        for variant in variants.iter().map(String::as_str) {
             let path = out_dir.join(format!("mitsuba_{variant}.exr"));
             let t = Instant::now();
             let status = Command::new(repo_root().join("scripts/mitsuba-ref"))
