@@ -7,6 +7,7 @@
 //! | `near_clip` | float     | 0.01    | nothing closer than this (along the view axis) is seen |
 //! | `far_clip`  | float     | 10000   | nothing farther                                        |
 //! | `to_world`  | transform | identity| camera to world; the camera looks down +z, +y is up     |
+//! | `focus_distance` | float | —     | accepted as Mitsuba does; a pinhole has no focus, so it has no effect |
 //!
 //! ```xml
 //! <sensor type="perspective">
