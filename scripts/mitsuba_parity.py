@@ -227,10 +227,11 @@ def _sub_outside_comments(pattern, repl, text, count=0):
     return "".join(out)
 
 
-def write_copy(files, tmpdir, size, strip_legacy):
+def write_copy(files, tmpdir, size, strip_legacy, extra_paths=()):
     """Writes the scene and its includes into tmpdir with the film resized
     (when `size`), legacy parameters stripped (when asked), <path> values and
-    includes absolute, and the scene's own folder added as a <path>. The
+    includes absolute, and the scene's own folder and `extra_paths` added as
+    <path>s. The
     edits are textual and keep every line where it was, so that error
     messages' line numbers hold for the original files. Returns the path of
     the main copy and a {copy: original} map."""
@@ -275,9 +276,10 @@ def write_copy(files, tmpdir, size, strip_legacy):
         if strip_legacy:
             text, _ = strip_legacy_text(text)
         if i == 0:
+            paths = "".join(f'<path value="{p}"/>'
+                            for p in [os.path.dirname(path), *map(os.path.abspath, extra_paths)])
             text = _sub_outside_comments(
-                r"(<scene\b[^>]*>)",
-                lambda m: m.group(1) + f'<path value="{os.path.dirname(path)}"/>', text, count=1)
+                r"(<scene\b[^>]*>)", lambda m: m.group(1) + paths, text, count=1)
         with open(copies[path], "w", encoding="utf-8") as f:
             f.write(text)
     return copies[files.files[0][0]], {v: k for k, v in copies.items()}
@@ -296,11 +298,11 @@ class PreparedScene:
         self.tmpdir = None
         self.path = self.files.main
         self.originals = {}
-        if args.res is not None or args.strip_legacy:
+        if args.res is not None or args.strip_legacy or args.paths:
             self.tmpdir = tempfile.mkdtemp(prefix="mitsuba-parity-")
             self.path, self.originals = write_copy(self.files, self.tmpdir,
                                    self.size if args.res is not None else None,
-                                   args.strip_legacy)
+                                   args.strip_legacy, args.paths)
 
     def unmap(self, text):
         """Names the original files in a message about the temporary copies."""
@@ -323,6 +325,7 @@ class PreparedScene:
             "runs": self.args.runs,
             "res": list(self.size) if self.args.res is not None else None,
             "strip_legacy": bool(self.args.strip_legacy),
+            "paths": [os.path.abspath(p) for p in self.args.paths],
         }
         return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest(), spec
 
@@ -644,6 +647,9 @@ def add_common(ap):
     ap.add_argument("--cache", default=os.environ.get("MITSUBA_REF_CACHE", DEFAULT_CACHE),
                     help="cache folder (default <repo>/.cache/mitsuba-refs, or $MITSUBA_REF_CACHE)")
     ap.add_argument("--force", action="store_true", help="re-render even when cached")
+    ap.add_argument("--path", dest="paths", action="append", default=[], metavar="DIR",
+                    help="an extra search path for both renderers (repeatable), e.g. where "
+                         "a docs scene's meshes really are")
     ap.add_argument("--threads", type=int, default=None, help="threads for Mitsuba and yubin")
 
 
