@@ -84,7 +84,6 @@ fn ztest_bsdf_spheres_textured_diffuse_path_shared() {
 }
 
 #[test]
-#[ignore = "fails: about 2 % of channel tests differ from Mitsuba's reference (darker at the silhouette); see the issue note"]
 fn ztest_bsdf_spheres_bumpmap_path_shared() {
     z_test_scene(
         "ztest_bsdf_spheres_bumpmap_path_shared",
@@ -94,7 +93,6 @@ fn ztest_bsdf_spheres_bumpmap_path_shared() {
 }
 
 #[test]
-#[ignore = "fails: about 2 % of channel tests differ from Mitsuba's reference (darker at the silhouette); see the issue note"]
 fn ztest_bsdf_spheres_normalmap_path_shared() {
     z_test_scene(
         "ztest_bsdf_spheres_normalmap_path_shared",

@@ -24,12 +24,13 @@
 //! normal is their cross product, turned to the side of the geometric
 //! normal (Blinn 1978, "Simulation of wrinkled surfaces"; pbrt-v4 §10.5.2
 //! with the dn/du terms dropped). Light on opposite sides of the original
-//! and the perturbed surface is rejected. Mitsuba 3's `bumpmap`.
+//! and the perturbed surface is rejected; a view below the perturbed
+//! surface mirrors the perturbation (see `perturbed.rs`). Mitsuba 3's
+//! `bumpmap`.
 
-use super::perturbed;
+use super::perturbed::{self, Perturbation};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
-use crate::math::Frame;
 use crate::params::{ParamError, Params};
 use crate::texture::Tex;
 use glam::Vec3;
@@ -74,21 +75,27 @@ impl BumpMap {
         }
     }
 
-    /// The perturbed frame in the coordinates of the shading frame.
+    /// The perturbed normal in the coordinates of the shading frame.
     #[inline]
-    fn frame(&self, m: &Materials, si: &SurfaceInteraction) -> Frame {
+    fn perturbation(&self, m: &Materials, si: &SurfaceInteraction) -> Perturbation {
         let (_, grad) = Tex::Texture(self.height).eval_1_grad(m, si);
         let grad = grad * self.scale;
         let n = si.sh_frame.n;
         let dpdu = si.dpdu + n * (grad.x - n.dot(si.dpdu));
         let dpdv = si.dpdv + n * (grad.y - n.dot(si.dpdv));
         let Some(mut np) = dpdu.cross(dpdv).try_normalize() else {
-            return Frame::from_normal(Vec3::Z);
+            return Perturbation {
+                n: Vec3::Z,
+                dpdu: si.to_local(si.dpdu),
+            };
         };
         if np.dot(si.n) < 0.0 {
             np = -np;
         }
-        Frame::from_normal_and_tangent(si.to_local(np), si.to_local(dpdu))
+        Perturbation {
+            n: si.to_local(np),
+            dpdu: si.to_local(dpdu),
+        }
     }
 }
 
@@ -146,7 +153,7 @@ pub(crate) mod tests {
             Bsdf::BumpMap(b) => b,
             _ => unreachable!(),
         };
-        let f = b.frame(&v.m, &flat_si());
+        let f = b.perturbation(&v.m, &flat_si());
         assert!(
             (f.n - Vec3::new(-1.0, 0.0, 1.0).normalize()).length() < 1e-4,
             "{}",

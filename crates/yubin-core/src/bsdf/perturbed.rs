@@ -1,10 +1,22 @@
 //! Shared by the BSDFs that replace the shading frame (`normalmap`,
 //! `bumpmap`): the nested BSDF is evaluated in a perturbed frame given in
-//! the coordinates of the original shading frame. A direction on one side
-//! of the perturbed surface but the other side of the original one is
-//! rejected (it would leak light through the surface). Mitsuba 3 rejects
-//! such light directions but not such viewing directions; yubin rejects
-//! both, so a one-sided material stays black from behind.
+//! the coordinates of the original shading frame.
+//!
+//! A viewing direction above the original surface but below the perturbed
+//! one (common at grazing views, along a silhouette) would see a black
+//! surface. Instead the perturbation is mirrored about the original
+//! normal, (x, y, z) → (−x, −y, z), which always turns it towards the
+//! viewer: Mitsuba 3 does so (measured in 3.9.1: its `normalmap` and
+//! `bumpmap` evaluate and sample the nested BSDF around the mirrored
+//! normal there; see `back_facing_view_mirrors_the_normal`). Rejecting
+//! such views instead left Mitsuba's bsdf_spheres scenes darker along the
+//! sphere's silhouette.
+//!
+//! A light direction on one side of the perturbed surface but the other
+//! side of the original one is rejected (it would leak light through the
+//! surface), as in Mitsuba 3. Viewing directions below the original
+//! surface are rejected too, so a one-sided material stays black from
+//! behind.
 //!
 //! Light is also shadowed as in Conty Estevez et al. 2019, "Taming the
 //! Shadow Terminator" (and as Mitsuba 3 does): the perturbed normal is
@@ -22,7 +34,33 @@ use crate::math::Frame;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
 
-/// Both directions on consistent sides of both frames.
+/// A perturbed normal and the direction its frame's first tangent
+/// follows, both in the coordinates of the original shading frame.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Perturbation {
+    /// The perturbed unit normal.
+    pub n: Vec3,
+    /// Made orthogonal to the normal for the frame's first tangent.
+    pub dpdu: Vec3,
+}
+
+impl Perturbation {
+    /// The frame the nested BSDF is evaluated in for viewing direction
+    /// `wo`: the perturbation's, mirrored about the original normal when
+    /// `wo` is above the original surface but not above the perturbed one
+    /// (see the module notes).
+    #[inline]
+    pub(super) fn frame(&self, wo: Vec3) -> Frame {
+        let n = if wo.z > 0.0 && wo.dot(self.n) <= 0.0 {
+            Vec3::new(-self.n.x, -self.n.y, self.n.z)
+        } else {
+            self.n
+        };
+        Frame::from_normal_and_tangent(n, self.dpdu)
+    }
+}
+
+/// A direction on consistent sides of both frames.
 #[inline]
 fn consistent(wi: Vec3, wi_perturbed: Vec3) -> bool {
     wi.z * wi_perturbed.z > 0.0
@@ -44,10 +82,10 @@ fn terminator_shadowing(n: Vec3, wi: Vec3) -> f32 {
     }
 }
 
-/// `nested`'s value in `frame`.
+/// `nested`'s value in the perturbed frame.
 #[inline]
 pub(super) fn eval(
-    frame: &Frame,
+    p: &Perturbation,
     nested: &Bsdf,
     m: &Materials,
     ctx: &BsdfContext,
@@ -55,6 +93,7 @@ pub(super) fn eval(
     wo: Vec3,
     wi: Vec3,
 ) -> Rgb {
+    let frame = p.frame(wo);
     let (wo_p, wi_p) = (frame.to_local(wo), frame.to_local(wi));
     if !consistent(wi, wi_p) || !consistent(wo, wo_p) {
         return Rgb::ZERO;
@@ -62,10 +101,10 @@ pub(super) fn eval(
     nested.eval(m, ctx, si, wo_p, wi_p) * terminator_shadowing(frame.n, wi)
 }
 
-/// `nested`'s density in `frame`.
+/// `nested`'s density in the perturbed frame.
 #[inline]
 pub(super) fn pdf(
-    frame: &Frame,
+    p: &Perturbation,
     nested: &Bsdf,
     m: &Materials,
     ctx: &BsdfContext,
@@ -73,6 +112,7 @@ pub(super) fn pdf(
     wo: Vec3,
     wi: Vec3,
 ) -> f32 {
+    let frame = p.frame(wo);
     let (wo_p, wi_p) = (frame.to_local(wo), frame.to_local(wi));
     if !consistent(wi, wi_p) || !consistent(wo, wo_p) {
         return 0.0;
@@ -80,10 +120,11 @@ pub(super) fn pdf(
     nested.pdf(m, ctx, si, wo_p, wi_p)
 }
 
-/// A sample of `nested` in `frame`, returned in the original frame.
+/// A sample of `nested` in the perturbed frame, returned in the original
+/// frame.
 #[inline]
 pub(super) fn sample(
-    frame: &Frame,
+    p: &Perturbation,
     nested: &Bsdf,
     m: &Materials,
     ctx: &BsdfContext,
@@ -92,6 +133,7 @@ pub(super) fn sample(
     u1: f32,
     u2: Vec2,
 ) -> Option<BsdfSample> {
+    let frame = p.frame(wo);
     let wo_p = frame.to_local(wo);
     if !consistent(wo, wo_p) {
         return None;
@@ -106,7 +148,7 @@ pub(super) fn sample(
 }
 
 /// Implements [`BsdfModel`] for a BSDF that evaluates the nested BSDF
-/// `self.nested` in the frame `self.frame(m, si)`.
+/// `self.nested` under the perturbation `self.perturbation(m, si)`.
 macro_rules! perturbed_bsdf {
     ($t:ty) => {
         impl $crate::bsdf::BsdfModel for $t {
@@ -124,7 +166,7 @@ macro_rules! perturbed_bsdf {
                 u2: glam::Vec2,
             ) -> Option<$crate::bsdf::BsdfSample> {
                 let nested = &m.bsdfs[self.nested as usize];
-                $crate::bsdf::perturbed::sample(&self.frame(m, si), nested, m, ctx, si, wo, u1, u2)
+                $crate::bsdf::perturbed::sample(&self.perturbation(m, si), nested, m, ctx, si, wo, u1, u2)
             }
 
             fn eval(
@@ -136,7 +178,7 @@ macro_rules! perturbed_bsdf {
                 wi: glam::Vec3,
             ) -> $crate::Rgb {
                 let nested = &m.bsdfs[self.nested as usize];
-                $crate::bsdf::perturbed::eval(&self.frame(m, si), nested, m, ctx, si, wo, wi)
+                $crate::bsdf::perturbed::eval(&self.perturbation(m, si), nested, m, ctx, si, wo, wi)
             }
 
             fn pdf(
@@ -148,7 +190,7 @@ macro_rules! perturbed_bsdf {
                 wi: glam::Vec3,
             ) -> f32 {
                 let nested = &m.bsdfs[self.nested as usize];
-                $crate::bsdf::perturbed::pdf(&self.frame(m, si), nested, m, ctx, si, wo, wi)
+                $crate::bsdf::perturbed::pdf(&self.perturbation(m, si), nested, m, ctx, si, wo, wi)
             }
         }
     };
