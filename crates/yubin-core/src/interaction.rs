@@ -27,6 +27,17 @@ pub struct SurfaceInteraction {
     pub shape: u32,
     /// Primitive within the shape (triangle index for meshes).
     pub prim: u32,
+    /// Triangle hits: the barycentric coordinates (b1, b2) of vertices 1
+    /// and 2 (vertex 0 has 1 − b1 − b2). Zero on other shapes.
+    pub bary: Vec2,
+    /// Triangle hits: the vertex indices of triangle `prim`, for per-vertex
+    /// mesh attributes. Zero on other shapes.
+    pub vertices: [u32; 3],
+    /// The hit mesh's attribute set in
+    /// [`crate::material::Materials::attributes`], or
+    /// [`crate::texture::NO_ATTRIBUTES`] (other shapes, meshes without
+    /// attributes).
+    pub attributes: u32,
 }
 
 impl SurfaceInteraction {

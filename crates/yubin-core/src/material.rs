@@ -2,11 +2,12 @@
 //! read. BSDF and texture variants are small `Copy` values that refer to one
 //! another (a `twosided`'s children, a texturable parameter) by index in
 //! these tables, so every BSDF and texture method takes [`Materials`].
+//! Mesh attributes live here too: textures see only these tables.
 //! Data a BSDF precomputes for itself (the layer tables of `roughplastic`)
 //! lives here too, computed when the BSDF is added ([`Materials::add_bsdf`]).
 
 use crate::bsdf::{Bsdf, RoughTransmittance};
-use crate::texture::{TexImage, Texture};
+use crate::texture::{MeshAttributes, TexImage, Texture};
 
 /// BSDFs, textures and texture images, by index.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -20,6 +21,9 @@ pub struct Materials {
     /// Transmittance tables of rough dielectric layers (`roughplastic`),
     /// shared by the BSDFs with the same interface.
     pub rough_transmittance: Vec<RoughTransmittance>,
+    /// Named mesh attributes (vertex colours, …) that `mesh_attribute`
+    /// textures read; meshes and hits refer to their set by index.
+    pub attributes: MeshAttributes,
 }
 
 impl Materials {

@@ -101,6 +101,13 @@ pub trait Params {
     /// Loads the image file named by string parameter `name` into the
     /// scene's image table (each file once) and returns its index.
     fn image(&mut self, name: &str) -> Result<Option<u32>, ParamError>;
+    /// The index of mesh attribute `attribute` (`vertex_color`, …) in the
+    /// scene's attribute-name table, added if new. A front end without a
+    /// scene has none.
+    fn attribute_index(&mut self, attribute: &str) -> Result<u32, ParamError> {
+        Err(self.error(&format!("no scene to hold mesh attribute \"{attribute}\"")))
+    }
+
     /// Marks parameter `name` as read without using it.
     fn mark_ignored(&mut self, name: &str);
     /// A warning for the user, located at parameter `name` (or the object).

@@ -20,7 +20,7 @@ use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::{Independent, Sampler};
 use crate::sampling::Distribution2D;
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
-use crate::texture::{TexImage, Texture};
+use crate::texture::{AttributeSlot, TexImage, Texture};
 use crate::Rgb;
 use rayon::prelude::*;
 
@@ -623,8 +623,35 @@ impl SceneBuilder {
         self.materials.bsdfs.get(index as usize)
     }
 
+    /// The index of attribute name `name` in the scene's attribute table
+    /// (added if new); what a `mesh_attribute` texture holds.
+    pub fn attribute_name(&mut self, name: &str) -> u32 {
+        self.materials.attributes.intern(name)
+    }
+
+    /// The name at index `name` of the attribute table.
+    pub fn attribute_label(&self, name: u32) -> &str {
+        self.materials
+            .attributes
+            .names
+            .get(name as usize)
+            .map_or("?", String::as_str)
+    }
+
+    /// Attribute `name` (an index from [`SceneBuilder::attribute_name`])
+    /// of mesh `mesh`, if it has one.
+    pub fn mesh_attribute(&self, mesh: u32, name: u32) -> Option<&AttributeSlot> {
+        let set = self.meshes.get(mesh as usize)?.attribute_set;
+        self.materials.attributes.find(set, name)
+    }
+
     /// Adds triangle data; returns its index (for [`crate::shape::MeshShape`]).
-    pub fn add_mesh(&mut self, m: TriangleMesh) -> u32 {
+    /// Its named attributes move into the scene's attribute table.
+    pub fn add_mesh(&mut self, mut m: TriangleMesh) -> u32 {
+        if !m.attributes.is_empty() {
+            let attributes = std::mem::take(&mut m.attributes);
+            m.attribute_set = self.materials.attributes.add_set(attributes);
+        }
         self.meshes.push(m);
         self.meshes.len() as u32 - 1
     }

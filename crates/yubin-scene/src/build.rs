@@ -78,6 +78,9 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         images: HashMap::new(),
         groups: HashMap::new(),
         warnings: Vec::new(),
+        reading: Vec::new(),
+        texture_reads: HashMap::new(),
+        bsdf_reads: HashMap::new(),
     };
     let root = &desc.root;
     let integrator = match root.single_child(Category::Integrator)? {
@@ -133,6 +136,13 @@ pub(crate) struct Builder<'a> {
     images: HashMap<PathBuf, u32>,
     groups: HashMap<*const Object, u32>,
     pub(crate) warnings: Vec<String>,
+    /// Mesh attributes (name indices) read by the BSDF or texture being
+    /// built, innermost last: a shape's BSDF is checked against its mesh.
+    reading: Vec<Vec<u32>>,
+    /// Mesh attributes each built texture reads, itself or through others.
+    texture_reads: HashMap<u32, Vec<u32>>,
+    /// Mesh attributes each built BSDF reads through its textures.
+    bsdf_reads: HashMap<u32, Vec<u32>>,
 }
 
 /// The constructor of `obj`'s plugin type in a family's plugin table; an
@@ -374,13 +384,65 @@ impl Builder<'_> {
     pub(crate) fn bsdf(&mut self, obj: &Rc<Object>) -> Result<u32, SceneError> {
         let key = Rc::as_ptr(obj);
         if let Some(&id) = self.bsdfs.get(&key) {
+            self.note_reads(self.bsdf_reads.get(&id).cloned());
             return Ok(id);
         }
         let build = plugin(obj, yubin_core::bsdf::PLUGINS)?;
+        self.reading.push(Vec::new());
         let bsdf = build(&mut ObjParams { obj, b: self })?;
+        let reads = self.reading.pop().unwrap_or_default();
         let id = self.sb.add_bsdf(bsdf);
         self.bsdfs.insert(key, id);
+        if !reads.is_empty() {
+            self.note_reads(Some(reads.clone()));
+            self.bsdf_reads.insert(id, reads);
+        }
         Ok(id)
+    }
+
+    /// The index of mesh attribute `name` in the scene's table, noted as
+    /// read by the object being built.
+    pub(crate) fn attribute_index(&mut self, name: &str) -> u32 {
+        let index = self.sb.attribute_name(name);
+        self.note_reads(Some(vec![index]));
+        index
+    }
+
+    /// Notes mesh attributes as read by the object being built.
+    fn note_reads(&mut self, reads: Option<Vec<u32>>) {
+        if let (Some(frame), Some(reads)) = (self.reading.last_mut(), reads) {
+            for r in reads {
+                if !frame.contains(&r) {
+                    frame.push(r);
+                }
+            }
+        }
+    }
+
+    /// Checks that a shape's mesh has every attribute its BSDF reads (with
+    /// one or three channels). Mitsuba fails at render time instead
+    /// (`Invalid attribute requested`); here it is a load error.
+    fn check_attributes(&self, obj: &Object, shape: &Shape, bsdf: u32) -> Result<(), SceneError> {
+        let Some(reads) = self.bsdf_reads.get(&bsdf) else {
+            return Ok(());
+        };
+        for &name in reads {
+            let label = self.sb.attribute_label(name);
+            let slot = match shape {
+                Shape::Mesh(m) => self.sb.mesh_attribute(m.mesh, name),
+                _ => None,
+            };
+            let problem = match slot {
+                Some(s) if matches!(s.channels, 1 | 3) => continue,
+                Some(s) => format!("has {} channels (mesh_attribute reads 1 or 3)", s.channels),
+                None if matches!(shape, Shape::Mesh(_)) => "is not in the mesh".to_string(),
+                None => "needs a mesh (ply) shape".to_string(),
+            };
+            return Err(obj.error(format!(
+                "attribute \"{label}\", read by its BSDF's mesh_attribute texture, {problem}"
+            )));
+        }
+        Ok(())
     }
 
     /// The BSDF built at index `id`.
@@ -392,12 +454,19 @@ impl Builder<'_> {
     pub(crate) fn texture(&mut self, obj: &Rc<Object>) -> Result<u32, ParamError> {
         let key = Rc::as_ptr(obj);
         if let Some(&id) = self.textures.get(&key) {
+            self.note_reads(self.texture_reads.get(&id).cloned());
             return Ok(id);
         }
         let build = plugin(obj, yubin_core::texture::PLUGINS).map_err(to_param)?;
+        self.reading.push(Vec::new());
         let texture = build(&mut ObjParams { obj, b: self })?;
+        let reads = self.reading.pop().unwrap_or_default();
         let id = self.sb.add_texture(texture);
         self.textures.insert(key, id);
+        if !reads.is_empty() {
+            self.note_reads(Some(reads.clone()));
+            self.texture_reads.insert(id, reads);
+        }
         Ok(id)
     }
 
@@ -564,6 +633,9 @@ impl Builder<'_> {
             }
         };
         let bsdf = self.shape_bsdf(obj)?;
+        if let Some(b) = bsdf {
+            self.check_attributes(obj, &shape, b)?;
+        }
         let radiance = self.area_radiance(obj)?;
         self.sb
             .add_shape_to(group, shape, bsdf, radiance)
@@ -587,6 +659,7 @@ impl Builder<'_> {
             face_normals,
             flip,
         )
+        .and_then(|m| m.with_attributes(data.attributes))
         .map_err(|e| obj.error(format!("{}: {e}", obj.describe())))?;
         mesh.transform(to_world);
         Ok(Shape::Mesh(MeshShape {

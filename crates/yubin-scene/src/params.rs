@@ -163,6 +163,10 @@ impl Params for ObjParams<'_, '_, '_> {
         self.b.image(&file, &loc).map(Some).map_err(to_param)
     }
 
+    fn attribute_index(&mut self, attribute: &str) -> Result<u32, ParamError> {
+        Ok(self.b.attribute_index(attribute))
+    }
+
     fn mark_ignored(&mut self, name: &str) {
         self.obj.mark_ignored(name);
     }

@@ -372,6 +372,9 @@ pub(crate) mod tests {
             wo: Vec3::Z,
             shape: 0,
             prim: 0,
+            bary: Vec2::ZERO,
+            vertices: [0; 3],
+            attributes: crate::texture::NO_ATTRIBUTES,
         }
     }
 

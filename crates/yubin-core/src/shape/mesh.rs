@@ -17,11 +17,20 @@
 //! triangle areas so that light sampling picks triangles by area.
 //!
 //! The ray–triangle test is watertight (Woop et al. 2013, `triangle.rs`).
+//!
+//! Named per-vertex and per-face attributes (PLY colours and the like, read
+//! by the `mesh_attribute` texture) arrive in [`TriangleMesh::attributes`]
+//! and move into the scene's attribute table when the mesh is added to a
+//! scene ([`crate::scene::SceneBuilder::add_mesh`]); the mesh keeps the
+//! index of its set there ([`TriangleMesh::attribute_set`]) and every hit
+//! carries it, with the barycentrics and the triangle's vertex indices, in
+//! its [`SurfaceInteraction`].
 
 use super::{PositionSample, PrimHit, ShapeModel, WatertightRay};
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Frame, Ray};
 use crate::sampling::{square_to_uniform_triangle, AliasTable};
+use crate::texture::{NamedAttribute, NO_ATTRIBUTES};
 use glam::{Vec2, Vec3};
 
 /// Triangle data, owned by the scene.
@@ -37,6 +46,12 @@ pub struct TriangleMesh {
     pub indices: Vec<[u32; 3]>,
     /// Turn all normals around.
     pub flip_normals: bool,
+    /// Named attributes as loaded ([`TriangleMesh::with_attributes`]);
+    /// emptied when the scene takes them over.
+    pub attributes: Vec<NamedAttribute>,
+    /// The mesh's set in the scene's attribute table
+    /// ([`crate::material::Materials::attributes`]), or [`NO_ATTRIBUTES`].
+    pub attribute_set: u32,
     area: Option<AliasTable>,
 }
 
@@ -52,10 +67,11 @@ pub enum MeshError {
         /// Vertex count.
         count: usize,
     },
-    /// An attribute array's length differs from the vertex count.
+    /// An attribute array's length differs from the vertex count (or, for
+    /// a `face_` attribute, the triangle count) times its channels.
     AttributeLength {
         /// Which attribute.
-        attribute: &'static str,
+        attribute: String,
         /// Its length.
         len: usize,
         /// Vertex count.
@@ -83,7 +99,7 @@ impl std::fmt::Display for MeshError {
                 len,
                 count,
             } => {
-                write!(f, "{attribute} has {len} entries for {count} vertices")
+                write!(f, "{attribute} has {len} entries for {count} elements")
             }
             MeshError::Empty => write!(f, "the mesh has no triangles"),
         }
@@ -119,7 +135,7 @@ impl TriangleMesh {
         for (attribute, len) in [("normals", normals.len()), ("uvs", uvs.len())] {
             if len != 0 && len != count {
                 return Err(MeshError::AttributeLength {
-                    attribute,
+                    attribute: attribute.to_string(),
                     len,
                     count,
                 });
@@ -131,6 +147,8 @@ impl TriangleMesh {
             uvs,
             indices,
             flip_normals,
+            attributes: Vec::new(),
+            attribute_set: NO_ATTRIBUTES,
             area: None,
         };
         if !face_normals && mesh.normals.is_empty() {
@@ -140,6 +158,28 @@ impl TriangleMesh {
             *n = n.try_normalize().unwrap_or(Vec3::Z);
         }
         Ok(mesh)
+    }
+
+    /// Attaches named attributes, checking their lengths: a `face_`
+    /// attribute has one value per triangle and channel, any other one per
+    /// vertex and channel (vertex attributes follow `positions`' order).
+    pub fn with_attributes(mut self, attributes: Vec<NamedAttribute>) -> Result<Self, MeshError> {
+        for a in &attributes {
+            let count = if a.per_face() {
+                self.indices.len()
+            } else {
+                self.positions.len()
+            };
+            if a.values.len() != count * a.channels as usize {
+                return Err(MeshError::AttributeLength {
+                    attribute: a.name.clone(),
+                    len: a.values.len() / (a.channels.max(1) as usize),
+                    count,
+                });
+            }
+        }
+        self.attributes = attributes;
+        Ok(self)
     }
 
     /// Applies an affine map to positions and normals.
@@ -302,6 +342,9 @@ impl ShapeModel for MeshShape {
             wo: -ray.d.normalize(),
             shape: 0,
             prim,
+            bary: hit.uv,
+            vertices: mesh.indices[prim as usize],
+            attributes: mesh.attribute_set,
         }
     }
 

@@ -259,6 +259,9 @@ pub(crate) fn make_interaction(
         wo: -ray.d.normalize(),
         shape: 0,
         prim: 0,
+        bary: Vec2::ZERO,
+        vertices: [0; 3],
+        attributes: crate::texture::NO_ATTRIBUTES,
     }
 }
 

@@ -18,10 +18,14 @@
 mod bitmap;
 mod checkerboard;
 pub mod image;
+mod mesh_attribute;
 
 pub use bitmap::{Bitmap, FilterType, WrapMode};
 pub use checkerboard::Checkerboard;
 pub use image::TexImage;
+pub use mesh_attribute::{
+    AttributeSlot, MeshAttribute, MeshAttributes, NamedAttribute, NO_ATTRIBUTES,
+};
 
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
@@ -50,6 +54,8 @@ pub enum Texture {
     Bitmap(Bitmap),
     /// `checkerboard`.
     Checkerboard(Checkerboard),
+    /// `mesh_attribute`.
+    MeshAttribute(MeshAttribute),
 }
 
 macro_rules! dispatch {
@@ -57,6 +63,7 @@ macro_rules! dispatch {
         match $self {
             Texture::Bitmap($t) => $e,
             Texture::Checkerboard($t) => $e,
+            Texture::MeshAttribute($t) => $e,
         }
     };
 }
@@ -177,5 +184,8 @@ pub const PLUGINS: &[(&str, TextureFromParams)] = &[
     ("bitmap", |p| Ok(Texture::Bitmap(Bitmap::from_params(p)?))),
     ("checkerboard", |p| {
         Ok(Texture::Checkerboard(Checkerboard::from_params(p)?))
+    }),
+    ("mesh_attribute", |p| {
+        Ok(Texture::MeshAttribute(MeshAttribute::from_params(p)?))
     }),
 ];

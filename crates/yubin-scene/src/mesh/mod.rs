@@ -4,6 +4,7 @@ pub mod obj;
 pub mod ply;
 
 use glam::{Vec2, Vec3};
+use yubin_core::texture::NamedAttribute;
 
 /// A triangle mesh as read from a file, before any transform is applied.
 /// Indexed: `normals` and `uvs`, when present, have one entry per position.
@@ -17,4 +18,8 @@ pub struct MeshData {
     pub uvs: Option<Vec<Vec2>>,
     /// Triangles as three vertex indices each; polygons are fan-triangulated.
     pub indices: Vec<[u32; 3]>,
+    /// Named attributes (PLY colours and the like): `vertex_…` ones follow
+    /// `positions`, `face_…` ones `indices` (a polygon's value repeated for
+    /// each of its triangles).
+    pub attributes: Vec<NamedAttribute>,
 }

@@ -13,9 +13,23 @@
 //! | `vertex` | `nx`, `ny`, `nz` | optional; used only when all three are present |
 //! | `vertex` | `u`,`v` / `s`,`t` / `texture_u`,`texture_v` / `texture_s`,`texture_t` | optional; the first complete pair in this order; no flip |
 //! | `face` | `vertex_indices` or `vertex_index` | a list of any integer type and any arity; fan-triangulated from its first vertex |
+//! | `vertex`, `face` | any other scalar | named attributes `vertex_<name>` / `face_<name>`, below |
 //!
-//! Everything else (colours, face colours, other elements) is skipped.
-//! Faces with fewer than three vertices are ignored.
+//! Other elements are skipped. Faces with fewer than three vertices are
+//! ignored.
+//!
+//! ## Attributes
+//!
+//! As Mitsuba 3 (3.9.1, checked) names them: `r`, `g`, `b` (and `a`) or
+//! `red`, `green`, `blue` (and `alpha`) form the attribute `color`;
+//! `<name>_0`, `<name>_1`, … form `<name>`, channels in header order. One or
+//! three channels are kept (four for a colour with alpha); other counts,
+//! names without a `_<digit>` suffix and list properties are skipped.
+//! Values: `float`/`double` and `uchar` as they are (so 8-bit colours are
+//! 0–255, as in Mitsuba, which warns about it); other integer types divided
+//! by their largest value and decoded from sRGB. A face attribute of a
+//! polygon is repeated for each of its triangles (Mitsuba rejects
+//! polygons with face attributes).
 //!
 //! In a Mitsuba scene:
 //!
@@ -50,6 +64,8 @@ use ply_rs_bw::ply::{
 
 use super::MeshData;
 use crate::error::{Location, SceneError};
+use yubin_core::texture::image::srgb_to_linear;
+use yubin_core::texture::NamedAttribute;
 
 /// Names of texture coordinate pairs, tried in this order.
 const UV_NAMES: [(&str, &str); 4] = [
@@ -111,6 +127,58 @@ struct MeshLayout {
     normal: Option<[usize; 3]>,
     uv: Option<[usize; 2]>,
     face_indices: usize,
+    vertex_attributes: Vec<AttributeColumns>,
+    face_attributes: Vec<AttributeColumns>,
+}
+
+/// The columns of one named attribute.
+#[derive(Debug)]
+struct AttributeColumns {
+    /// `vertex_<name>` or `face_<name>`.
+    name: String,
+    columns: Vec<usize>,
+}
+
+/// The attribute a colour property belongs to.
+const COLOR_NAMES: [&str; 8] = ["r", "g", "b", "a", "red", "green", "blue", "alpha"];
+
+/// Groups the scalar properties of `element` not in `used` into named
+/// attributes (see the module docs).
+fn attribute_columns(element: &ElementDef, prefix: &str, used: &[usize]) -> Vec<AttributeColumns> {
+    let mut groups: Vec<(String, Vec<usize>)> = Vec::new();
+    for (column, (key, p)) in element.properties.iter().enumerate() {
+        if used.contains(&column) || !matches!(p.data_type, PropertyType::Scalar(_)) {
+            continue;
+        }
+        let group = if COLOR_NAMES.contains(&key.as_str()) {
+            "color"
+        } else {
+            match key.rsplit_once('_') {
+                Some((base, digits))
+                    if !base.is_empty()
+                        && !digits.is_empty()
+                        && digits.bytes().all(|b| b.is_ascii_digit()) =>
+                {
+                    base
+                }
+                _ => continue,
+            }
+        };
+        match groups.iter_mut().find(|g| g.0 == group) {
+            Some(g) => g.1.push(column),
+            None => groups.push((group.to_string(), vec![column])),
+        }
+    }
+    groups
+        .into_iter()
+        .filter(|(name, columns)| {
+            matches!(columns.len(), 1 | 3) || (name == "color" && columns.len() == 4)
+        })
+        .map(|(name, columns)| AttributeColumns {
+            name: format!("{prefix}_{name}"),
+            columns,
+        })
+        .collect()
 }
 
 impl MeshLayout {
@@ -145,12 +213,21 @@ impl MeshLayout {
         if vertex.count > u32::MAX as usize {
             return Err(whole_file(format!("too many vertices ({})", vertex.count)));
         }
+        let mut used: Vec<usize> = position.to_vec();
+        used.extend(normal.into_iter().flatten());
+        for (u, v) in UV_NAMES {
+            if let Ok(columns) = scalar_columns(vertex, [u, v]) {
+                used.extend(columns);
+            }
+        }
         Ok(Self {
             vertex_count: vertex.count,
             position,
             normal,
             uv,
             face_indices,
+            vertex_attributes: attribute_columns(vertex, "vertex", &used),
+            face_attributes: attribute_columns(face, "face", &[face_indices]),
         })
     }
 }
@@ -187,6 +264,16 @@ fn read_mesh(
     let mut mesh = MeshData {
         normals: layout.normal.map(|_| Vec::new()),
         uvs: layout.uv.map(|_| Vec::new()),
+        attributes: layout
+            .vertex_attributes
+            .iter()
+            .chain(&layout.face_attributes)
+            .map(|a| NamedAttribute {
+                name: a.name.clone(),
+                channels: a.columns.len() as u8,
+                values: Vec::new(),
+            })
+            .collect(),
         ..Default::default()
     };
     let (mut have_vertices, mut have_faces) = (false, false);
@@ -233,6 +320,10 @@ fn read_vertices(
             let [u, v] = cols.map(|c| scalar_f32(&row.0[c]));
             uvs.push(Vec2::new(u, v));
         }
+        for (a, out) in layout.vertex_attributes.iter().zip(&mut mesh.attributes) {
+            out.values
+                .extend(a.columns.iter().map(|&c| attribute_value(&row.0[c])));
+        }
     }
     Ok(())
 }
@@ -260,7 +351,16 @@ fn read_faces(
             );
             return Err(rows.error_at(line, msg));
         }
+        let before = mesh.indices.len();
         fan_triangulate(&polygon, &mut mesh.indices);
+        let triangles = mesh.indices.len() - before;
+        let face_outputs = &mut mesh.attributes[layout.vertex_attributes.len()..];
+        for (a, out) in layout.face_attributes.iter().zip(face_outputs) {
+            for _ in 0..triangles {
+                out.values
+                    .extend(a.columns.iter().map(|&c| attribute_value(&row.0[c])));
+            }
+        }
     }
     Ok(())
 }
@@ -297,6 +397,21 @@ fn scalar_f32(property: &Property) -> f32 {
         Property::Double(v) => v as f32,
         _ => f32::NAN,
     }
+}
+
+/// A scalar property as an attribute value, scaled as Mitsuba 3 does:
+/// floats and `uchar` as they are, other integers divided by their largest
+/// value and decoded from sRGB.
+fn attribute_value(property: &Property) -> f32 {
+    let normalized = match *property {
+        Property::Char(v) => f64::from(v) / f64::from(i8::MAX),
+        Property::Short(v) => f64::from(v) / f64::from(i16::MAX),
+        Property::UShort(v) => f64::from(v) / f64::from(u16::MAX),
+        Property::Int(v) => f64::from(v) / f64::from(i32::MAX),
+        Property::UInt(v) => f64::from(v) / f64::from(u32::MAX),
+        _ => return scalar_f32(property),
+    };
+    srgb_to_linear(normalized as f32)
 }
 
 /// An integer list property as `i64`s in `out` (cleared first).
@@ -505,6 +620,48 @@ end_header
         assert_eq!(mesh.indices, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(mesh.normals.unwrap(), vec![Vec3::Z; 4]);
         assert_eq!(mesh.uvs.unwrap()[3], Vec2::new(0.0, 1.0));
+    }
+
+    /// Attributes named and scaled as Mitsuba 3.9.1 does (values checked
+    /// there with `mi.traverse(shape)` on the same kinds of properties).
+    #[test]
+    fn extra_properties_become_named_attributes() {
+        let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                   property float z\nproperty float u\nproperty float v\nproperty uchar red\n\
+                   property uchar green\nproperty uchar blue\nproperty char w_0\nproperty ushort q_0\n\
+                   property float temp\nproperty float two_0\nproperty float two_1\n\
+                   element face 2\nproperty list uchar int vertex_indices\nproperty double color_0\n\
+                   property double color_1\nproperty double color_2\nend_header\n\
+                   0 0 0 0 0 255 128 0 64 32768 5 1 2\n1 0 0 1 0 0 0 0 -64 6553 5 1 2\n\
+                   0 1 0 0 1 1 2 3 127 65535 5 1 2\n3 0 1 2 0.5 2 -1\n4 0 1 2 0 0.1 0.2 0.3\n";
+        let mesh = load_bytes(ply.as_bytes()).unwrap();
+        let names: Vec<&str> = mesh.attributes.iter().map(|a| a.name.as_str()).collect();
+        // `temp` has no suffix and `two` two channels: both skipped.
+        assert_eq!(
+            names,
+            ["vertex_color", "vertex_w", "vertex_q", "face_color"]
+        );
+        let color = &mesh.attributes[0];
+        assert_eq!(color.channels, 3);
+        assert_eq!(
+            color.values,
+            [255.0, 128.0, 0.0, 0.0, 0.0, 0.0, 1.0, 2.0, 3.0]
+        );
+        let close = |got: &[f32], want: &[f32]| {
+            got.len() == want.len() && got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-5)
+        };
+        let w = &mesh.attributes[1].values;
+        assert!(close(w, &[0.217703, -0.039004, 1.0]), "{w:?}");
+        let q = &mesh.attributes[2].values;
+        assert!(close(q, &[0.214048, 0.010022, 1.0]), "{q:?}");
+        // The quad's face colour repeats for both of its triangles.
+        let face = &mesh.attributes[3];
+        assert_eq!(mesh.indices.len(), 3);
+        assert!(close(
+            &face.values,
+            &[0.5, 2.0, -1.0, 0.1, 0.2, 0.3, 0.1, 0.2, 0.3]
+        ));
+        assert!(face.per_face() && !color.per_face());
     }
 
     #[test]
