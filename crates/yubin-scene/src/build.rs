@@ -18,7 +18,7 @@
 use crate::desc::{Category, Object, SceneDesc};
 use crate::error::{Location, SceneError};
 use crate::image_io::read_texture;
-use crate::mesh::{obj::load_obj, ply::load_ply, MeshData};
+use crate::mesh::{obj::load_obj, ply::load_ply, serialized::load_serialized, MeshData};
 use crate::params::{to_param, ObjParams};
 use glam::{DMat4, Vec3};
 use std::collections::HashMap;
@@ -555,16 +555,22 @@ impl Builder<'_> {
         let flip = obj.boolean_or("flip_normals", false)?;
         let to_world = transform_of(obj, "to_world")?;
         let shape = match kind {
-            "obj" | "ply" => {
+            "obj" | "ply" | "serialized" => {
                 let name = obj
                     .string("filename")?
                     .ok_or_else(|| obj.error(format!("{} needs a \"filename\"", obj.describe())))?;
                 let path = self.desc.resolve_file(name, obj.loc_of("filename"))?;
                 let face_normals = obj.boolean_or("face_normals", false)?;
-                let data = if kind == "obj" {
-                    load_obj(&path, obj.boolean_or("flip_tex_coords", true)?)?
-                } else {
-                    load_ply(&path)?
+                let data = match kind {
+                    "obj" => load_obj(&path, obj.boolean_or("flip_tex_coords", true)?)?,
+                    "ply" => load_ply(&path)?,
+                    _ => {
+                        let index = obj.integer_or("shape_index", 0)?;
+                        let index = usize::try_from(index).map_err(|_| {
+                            obj.param_error("shape_index", format!("must be 0 or more, not {index}"))
+                        })?;
+                        load_serialized(&path, index)?
+                    }
                 };
                 self.mesh_shape(obj, data, face_normals, flip, &to_world)?
             }
@@ -628,7 +634,7 @@ impl Builder<'_> {
             _ => {
                 return Err(unknown_type(
                     obj,
-                    "obj, ply, cube, sphere, rectangle, disk, cylinder, shapegroup, instance",
+                    "obj, ply, serialized, cube, sphere, rectangle, disk, cylinder, shapegroup, instance",
                 ))
             }
         };

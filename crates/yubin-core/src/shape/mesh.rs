@@ -1,14 +1,27 @@
-//! Triangle meshes (`obj`, `ply`, `cube`, and any mesh built in code).
+//! Triangle meshes (`obj`, `ply`, `serialized`, `cube`, and any mesh built
+//! in code). The file formats are read by `yubin-scene` (`mesh/obj.rs`,
+//! `mesh/ply.rs`, `mesh/serialized.rs`).
 //!
-//! | parameter      | type      | default | meaning                                          |
-//! |----------------|-----------|---------|--------------------------------------------------|
-//! | `to_world`     | transform | identity| applied to the vertices when the mesh is built   |
-//! | `face_normals` | boolean   | false   | flat shading: ignore/skip vertex normals         |
-//! | `flip_normals` | boolean   | false   | turn geometric and shading normals around        |
+//! | parameter         | type      | default  | meaning                                            |
+//! |-------------------|-----------|----------|----------------------------------------------------|
+//! | `filename`        | string    | —        | the mesh file (`obj`, `ply`, `serialized`)         |
+//! | `to_world`        | transform | identity | applied to the vertices when the mesh is built     |
+//! | `face_normals`    | boolean   | false    | flat shading: ignore/skip vertex normals           |
+//! | `flip_normals`    | boolean   | false    | turn geometric and shading normals around          |
+//! | `flip_tex_coords` | boolean   | true     | `obj` only: v ↦ 1 − v                              |
+//! | `shape_index`     | integer   | 0        | `serialized` only: which mesh of the file (from 0) |
 //!
 //! ```xml
 //! <shape type="ply"><string name="filename" value="bunny.ply"/></shape>
+//! <shape type="serialized">
+//!     <string name="filename" value="meshes/matpreview.serialized"/>
+//!     <integer name="shape_index" value="2"/>
+//! </shape>
 //! ```
+//!
+//! `serialized` is Mitsuba's binary mesh format (zlib-compressed, several
+//! meshes per file); like Mitsuba, its texture coordinates are used as
+//! stored, and its face-normals hint is ignored.
 //!
 //! Vertices are stored in world (or shape-group) space. When a mesh has no
 //! normals and `face_normals` is false, smooth vertex normals are computed

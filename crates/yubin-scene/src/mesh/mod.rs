@@ -1,7 +1,8 @@
-//! Triangle mesh loaders (OBJ, PLY) producing plain [`MeshData`].
+//! Triangle mesh loaders (OBJ, PLY, Mitsuba serialized) producing plain [`MeshData`].
 
 pub mod obj;
 pub mod ply;
+pub mod serialized;
 
 use glam::{Vec2, Vec3};
 use yubin_core::texture::NamedAttribute;
