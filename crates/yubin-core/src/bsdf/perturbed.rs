@@ -166,7 +166,16 @@ macro_rules! perturbed_bsdf {
                 u2: glam::Vec2,
             ) -> Option<$crate::bsdf::BsdfSample> {
                 let nested = &m.bsdfs[self.nested as usize];
-                $crate::bsdf::perturbed::sample(&self.perturbation(m, si), nested, m, ctx, si, wo, u1, u2)
+                $crate::bsdf::perturbed::sample(
+                    &self.perturbation(m, si),
+                    nested,
+                    m,
+                    ctx,
+                    si,
+                    wo,
+                    u1,
+                    u2,
+                )
             }
 
             fn eval(

@@ -26,7 +26,7 @@
 //! | positions | 3 reals per vertex | `f32`, or `f64` with `0x2000` |
 //! | normals | 3 reals per vertex | with `0x0001` |
 //! | texture coordinates | 2 reals per vertex | with `0x0002` |
-//! | colours | 3 reals per vertex | with `0x0008`; skipped |
+//! | colours | 3 reals per vertex | with `0x0008`; the attribute `vertex_color` |
 //! | triangles | 3 indices each | `u32` (`u64` when there are more than 2³² vertices, which yubin rejects) |
 //!
 //! Like Mitsuba 3, the loader keeps texture coordinates as stored (no `v`
@@ -59,6 +59,7 @@ use glam::{Vec2, Vec3};
 
 use super::MeshData;
 use crate::error::SceneError;
+use yubin_core::texture::NamedAttribute;
 
 /// The `u16` at the start of every mesh.
 const FORMAT_ID: u16 = 0x041C;
@@ -279,9 +280,14 @@ fn read_mesh(body: &mut MeshBody, version: u16) -> Result<MeshData, String> {
     } else {
         None
     };
+    let mut attributes = Vec::new();
     if flags & HAS_COLORS != 0 {
-        let len = size(3)?;
-        body.read_vec(len, "vertex colours")?;
+        // Mitsuba 3 names them `vertex_color`, for `mesh_attribute`.
+        attributes.push(NamedAttribute {
+            name: "vertex_color".into(),
+            channels: 3,
+            values: read_reals(body, size(3)?, real, "vertex colours")?,
+        });
     }
     let index_bytes = usize::try_from(triangle_count)
         .ok()
@@ -308,6 +314,7 @@ fn read_mesh(body: &mut MeshBody, version: u16) -> Result<MeshData, String> {
         normals,
         uvs,
         indices,
+        attributes,
     })
 }
 
@@ -464,6 +471,10 @@ mod tests {
         assert_eq!(second.normals, None);
         assert_eq!(second.uvs.unwrap()[1], Vec2::new(1.0, 0.0));
         assert_eq!(second.indices, first.indices);
+        assert!(first.attributes.is_empty());
+        let colors = &second.attributes[0];
+        assert_eq!((colors.name.as_str(), colors.channels), ("vertex_color", 3));
+        assert_eq!(colors.values[9..], [0.5, 0.25, 0.125]);
 
         let msg = beyond.unwrap_err().to_string();
         assert!(msg.contains(&*path.to_string_lossy()), "{msg}");
