@@ -443,3 +443,18 @@ fn corrupt_texture_image_is_named() {
     let stderr = render_fails(&dir, &xml);
     assert_mentions(&stderr, &["broken.png"]);
 }
+
+/// A normal map on a mesh without texture coordinates is not an error:
+/// as in Mitsuba 3, such a mesh's uv are the hit's barycentric
+/// coordinates and its tangent the triangle's first edge.
+#[test]
+fn normalmap_on_a_mesh_without_uvs_renders() {
+    let dir = TempDir::new("normalmap_without_uvs");
+    dir.write(
+        "quad.obj",
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n",
+    );
+    let body = "\t<shape type=\"obj\">\n\t\t<string name=\"filename\" value=\"quad.obj\"/>\n\t\t<bsdf type=\"normalmap\">\n\t\t\t<rgb name=\"normalmap\" value=\"0.7, 0.5, 0.9\"/>\n\t\t\t<bsdf type=\"diffuse\"/>\n\t\t</bsdf>\n\t</shape>";
+    dir.write("scene.xml", &scene(body));
+    render_succeeds(&dir);
+}
