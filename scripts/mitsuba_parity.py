@@ -534,6 +534,12 @@ def cmd_ztest(args):
     import numpy as np
     prep = PreparedScene(args)
     result = {"scene": prep.files.main, "size": list(prep.size)}
+    # yubin may render another file than the reference's (to show that a
+    # difference is Mitsuba's: see --yubin-scene).
+    yprep = prep
+    if args.yubin_scene:
+        yprep = PreparedScene(argparse.Namespace(**{**vars(args), "scene": args.yubin_scene}))
+        result["yubin_scene"] = yprep.files.main
     try:
         w, h = prep.size
         spp = args.yubin_spp or max(1, 2_000_000 // (w * h))
@@ -543,7 +549,7 @@ def cmd_ztest(args):
             yubin = "/work/main/target/release/yubin"
         out_dir = tempfile.mkdtemp(prefix="yubin-ztest-")
         out = os.path.join(out_dir, "yubin.exr")
-        cmd = [yubin, "render", prep.path, "-o", out, "--spp", str(spp),
+        cmd = [yubin, "render", yprep.path, "-o", out, "--spp", str(spp),
                "--seed", str(args.yubin_seed), "-q"]
         for k, v in prep.defines.items():
             cmd += ["-D", f"{k}={v}"]
@@ -556,7 +562,7 @@ def cmd_ztest(args):
         result["yubin_seconds"] = round(time.perf_counter() - t0, 2)
         if proc.returncode != 0 or not os.path.exists(out):
             shutil.rmtree(out_dir, ignore_errors=True)
-            msg = prep.unmap(first_error_line(proc.stderr + "\n" + proc.stdout))
+            msg = yprep.unmap(first_error_line(proc.stderr + "\n" + proc.stdout))
             result.update(status="yubin-error", message=msg)
             print(f"yubin cannot load/render: {msg}")
             return 2, result
@@ -665,6 +671,9 @@ def main():
     z.add_argument("--yubin-spp", type=int, default=None,
                    help="yubin spp (default floor(2e6 / pixels), as in the _shared tests)")
     z.add_argument("--yubin-seed", type=int, default=0)
+    z.add_argument("--yubin-scene", default=None, metavar="FILE",
+                   help="yubin renders FILE instead of the reference's scene (same size and "
+                        "search paths), e.g. to compare against a Mitsuba workaround of a Mitsuba bug")
     z.add_argument("--z-png", default=None, help="write a false-colour PNG of max-channel |z|")
     z.add_argument("--json", default=None, help="write the result as JSON")
     args = ap.parse_args()

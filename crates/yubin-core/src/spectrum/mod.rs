@@ -215,6 +215,31 @@ mod tests {
         );
         let e = sampled_spectrum_to_rgb(&[(360.0, 1.0), (830.0, 1.0)], false);
         assert!(close(e, [1.204_88, 0.948_229, 0.909_267], 1e-5), "{e}");
+        // A conductor's `eta` and `k` from wavelength:value lists (Mitsuba's
+        // docs scene bsdf_blendbsdf.xml), read back with `mi.traverse`.
+        let eta = [
+            (300.0, 1.8),
+            (400.0, 1.65),
+            (500.0, 0.9),
+            (600.0, 0.2),
+            (700.0, 0.16),
+            (800.0, 0.18),
+        ];
+        let k = [
+            (300.0, 1.92),
+            (400.0, 1.95),
+            (500.0, 1.95),
+            (600.0, 2.97),
+            (700.0, 3.8),
+            (800.0, 5.12),
+        ];
+        let eta = spectrum_to_rgb(&eta, ColorKind::Unbounded);
+        let k = spectrum_to_rgb(&k, ColorKind::Unbounded);
+        assert!(
+            close(eta, [0.045_234_1, 0.585_709, 1.336_92], 1e-4),
+            "{eta}"
+        );
+        assert!(close(k, [3.388_69, 2.349_04, 1.875_16], 1e-4), "{k}");
     }
 
     #[test]
