@@ -496,6 +496,30 @@ pub(crate) mod tests {
         (sum / n as f64).as_vec3()
     }
 
+    /// The part of [`albedo`] carried by null samples (the path continues
+    /// straight on, keeping the previous vertex's density for MIS), and
+    /// what shadow rays get through the surface ([`Bsdf::pass_through`]),
+    /// for light arriving along `-wo`. Light sampling reaches what null
+    /// samples reach only if the two agree.
+    pub(crate) fn null_part(m: &Materials, id: usize, wo: Vec3) -> (Rgb, f32) {
+        let b = m.bsdfs[id];
+        let si = SurfaceInteraction { wo, ..flat_si() };
+        let ctx = BsdfContext {
+            mode: TransportMode::Importance,
+        };
+        let mut rng = Pcg32::new(7, 7);
+        let n = 100_000;
+        let sum: glam::DVec3 = (0..n)
+            .filter_map(|_| {
+                let u1 = rng.next_f32();
+                b.sample(m, &ctx, &si, wo, u1, rng.next_2d())
+            })
+            .filter(|s| s.sampled == BsdfFlags::NULL)
+            .map(|s| s.weight.as_dvec3())
+            .sum();
+        ((sum / n as f64).as_vec3(), b.pass_through(m, &si))
+    }
+
     /// One configuration of a BSDF for the table-driven tests: the tables
     /// and the index of the BSDF under test.
     pub(crate) struct Variant {
@@ -602,6 +626,13 @@ pub(crate) mod tests {
                 }
                 if v.lossless && (a - Rgb::ONE).abs().max_element() > 0.01 {
                     failures.push(format!("{} wo={wo}: lossless but albedo {a}", v.name));
+                }
+                let (null, pass) = null_part(&v.m, v.id, wo);
+                if (null - Rgb::splat(pass)).abs().max_element() > 0.01 {
+                    failures.push(format!(
+                        "{} wo={wo}: null samples carry {null}, shadow rays pass {pass}",
+                        v.name
+                    ));
                 }
             }
             if !v.reciprocal {

@@ -24,8 +24,14 @@
 //! `thindielectric` and pbrt-v4's `ThinDielectricBxDF` use the same
 //! model). The transmitted direction is
 //! −wo: the two refractions cancel, so the path neither bends nor changes
-//! its radiance scale (η = 1). Transmission is a `NULL` lobe, as in
-//! Mitsuba 3: the path continues unchanged. Two-sided.
+//! its radiance scale (η = 1). Two-sided.
+//!
+//! Transmission is a delta transmission lobe. Mitsuba 3 flags it `Null`,
+//! but its shadow rays stop at the slab as yubin's do, and its `path`
+//! treats a null sample like any delta one for MIS. yubin's `path` keeps
+//! the previous vertex's density across null lobes because its shadow
+//! rays cross null surfaces; flagged null, light through a slab would be
+//! counted by neither strategy where the previous vertex is not smooth.
 
 use super::dielectric::Dielectric;
 use super::fresnel::{fresnel_dielectric, reflect};
@@ -67,7 +73,10 @@ impl ThinDielectric {
 
 impl BsdfModel for ThinDielectric {
     fn flags(&self, _: &Materials) -> BsdfFlags {
-        BsdfFlags::DELTA_REFLECTION | BsdfFlags::NULL | BsdfFlags::FRONT_SIDE | BsdfFlags::BACK_SIDE
+        BsdfFlags::DELTA_REFLECTION
+            | BsdfFlags::DELTA_TRANSMISSION
+            | BsdfFlags::FRONT_SIDE
+            | BsdfFlags::BACK_SIDE
     }
 
     #[inline]
@@ -94,7 +103,7 @@ impl BsdfModel for ThinDielectric {
                 wi: -wo,
                 pdf: 1.0 - r,
                 eta: 1.0,
-                sampled: BsdfFlags::NULL,
+                sampled: BsdfFlags::DELTA_TRANSMISSION,
                 weight: self.0.specular_transmittance.eval(m, si),
             }
         })
@@ -149,7 +158,7 @@ pub(crate) mod tests {
             let s = b.sample(&t, &ctx, &si, wo, 0.99, Vec2::ZERO).unwrap();
             assert!((s.pdf - (1.0 - r)).abs() < 2e-5, "{wo}: {s:?}");
             assert_eq!((s.wi, s.weight, s.eta), (-wo, Rgb::ONE, 1.0));
-            assert_eq!(s.sampled, BsdfFlags::NULL);
+            assert_eq!(s.sampled, BsdfFlags::DELTA_TRANSMISSION);
         }
     }
 
