@@ -1,7 +1,7 @@
 //! Surface interactions: everything the integrator needs about a hit.
 
 use crate::math::{spawn_ray, spawn_ray_to, Frame, Ray};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 
 /// A ray–surface hit, in world space.
 #[derive(Clone, Copy, Debug)]
@@ -38,6 +38,10 @@ pub struct SurfaceInteraction {
     /// [`crate::texture::NO_ATTRIBUTES`] (other shapes, meshes without
     /// attributes).
     pub attributes: u32,
+    /// Meshes with MikkTSpace tangents ([`crate::shape::TriangleMesh::tangents`]):
+    /// the interpolated tangent (world, not normalized) and, in `w`, the
+    /// bitangent's sign (bitangent = w · n × tangent). Zero elsewhere.
+    pub tangent: Vec4,
 }
 
 impl SurfaceInteraction {

@@ -493,6 +493,14 @@ fn instance_to_world(local: &SurfaceInteraction, t: &Transform) -> SurfaceIntera
         sh_frame: Frame::from_normal_and_tangent(ns, dpdu),
         dpdu,
         dpdv: t.vector(local.dpdv),
+        // A mirroring instance turns n × tangent around, and so the sign.
+        tangent: t
+            .vector(local.tangent.truncate())
+            .extend(if t.swaps_handedness() {
+                -local.tangent.w
+            } else {
+                local.tangent.w
+            }),
         ..*local
     }
 }
@@ -621,6 +629,13 @@ impl SceneBuilder {
     /// The BSDF at `index`, if there is one (what a front end built).
     pub fn bsdf(&self, index: u32) -> Option<&Bsdf> {
         self.materials.bsdfs.get(index as usize)
+    }
+
+    /// True when BSDF `index` reads a normal map in MikkTSpace
+    /// ([`Bsdf::needs_mikktspace`]).
+    pub fn needs_mikktspace(&self, index: u32) -> bool {
+        self.bsdf(index)
+            .is_some_and(|b| b.needs_mikktspace(&self.materials))
     }
 
     /// The index of attribute name `name` in the scene's attribute table

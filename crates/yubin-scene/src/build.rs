@@ -554,6 +554,7 @@ impl Builder<'_> {
         }
         let flip = obj.boolean_or("flip_normals", false)?;
         let to_world = transform_of(obj, "to_world")?;
+        let bsdf = self.shape_bsdf(obj)?;
         let shape = match kind {
             "obj" | "ply" | "serialized" => {
                 let name = obj
@@ -572,11 +573,12 @@ impl Builder<'_> {
                         load_serialized(&path, index)?
                     }
                 };
-                self.mesh_shape(obj, data, face_normals, flip, &to_world)?
+                self.mesh_shape(obj, data, face_normals, flip, &to_world, bsdf)?
             }
             "cube" => {
                 let mut mesh = cube_mesh_with(flip);
                 mesh.transform(&to_world);
+                self.prepare_tangents(obj, bsdf, &mut mesh)?;
                 Shape::Mesh(MeshShape {
                     mesh: self.sb.add_mesh(mesh),
                 })
@@ -638,7 +640,6 @@ impl Builder<'_> {
                 ))
             }
         };
-        let bsdf = self.shape_bsdf(obj)?;
         if let Some(b) = bsdf {
             self.check_attributes(obj, &shape, b)?;
         }
@@ -656,6 +657,7 @@ impl Builder<'_> {
         face_normals: bool,
         flip: bool,
         to_world: &Transform,
+        bsdf: Option<u32>,
     ) -> Result<Shape, SceneError> {
         let mut mesh = TriangleMesh::new(
             data.positions,
@@ -668,9 +670,29 @@ impl Builder<'_> {
         .and_then(|m| m.with_attributes(data.attributes))
         .map_err(|e| obj.error(format!("{}: {e}", obj.describe())))?;
         mesh.transform(to_world);
+        self.prepare_tangents(obj, bsdf, &mut mesh)?;
         Ok(Shape::Mesh(MeshShape {
             mesh: self.sb.add_mesh(mesh),
         }))
+    }
+
+    /// Computes the mesh's MikkTSpace tangents when its BSDF reads a
+    /// normal map in that frame; a mesh without uvs cannot have them.
+    fn prepare_tangents(
+        &self,
+        obj: &Object,
+        bsdf: Option<u32>,
+        mesh: &mut TriangleMesh,
+    ) -> Result<(), SceneError> {
+        let Some(b) = bsdf else { return Ok(()) };
+        if !self.sb.needs_mikktspace(b) || mesh.compute_tangents() {
+            return Ok(());
+        }
+        Err(obj.error(format!(
+            "{} has no texture coordinates, so no MikkTSpace tangents for its normalmap \
+             (tangent_space=\"mikktspace\"); use tangent_space=\"dpdu\" or a mesh with uvs",
+            obj.describe()
+        )))
     }
 
     fn shape_group(&mut self, obj: &Rc<Object>) -> Result<u32, SceneError> {

@@ -210,6 +210,29 @@ pub enum Bsdf {
 }
 
 impl Bsdf {
+    /// The BSDFs nested in this one, by index (none for plain models).
+    pub fn children(&self) -> Vec<u32> {
+        match self {
+            Bsdf::TwoSided(t) => vec![t.front, t.back],
+            Bsdf::Mask(b) => vec![b.nested],
+            Bsdf::BumpMap(b) => vec![b.nested],
+            Bsdf::NormalMap(b) => vec![b.nested],
+            Bsdf::BlendBsdf(b) => b.bsdfs.to_vec(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// True when this BSDF or one nested in it reads a normal map in
+    /// MikkTSpace: the mesh under it needs tangents
+    /// ([`crate::shape::TriangleMesh::compute_tangents`]).
+    pub fn needs_mikktspace(&self, m: &Materials) -> bool {
+        matches!(self, Bsdf::NormalMap(n) if n.mikktspace)
+            || self
+                .children()
+                .iter()
+                .any(|&c| m.bsdfs[c as usize].needs_mikktspace(m))
+    }
+
     /// The fraction of light that passes straight through the surface at
     /// `si` (for generalized shadow rays): 1 for `null`, 1 − α for `mask`,
     /// blended by `blendbsdf`, per side for `twosided`; 0 for surfaces that
@@ -375,6 +398,7 @@ pub(crate) mod tests {
             bary: Vec2::ZERO,
             vertices: [0; 3],
             attributes: crate::texture::NO_ATTRIBUTES,
+            tangent: glam::Vec4::ZERO,
         }
     }
 

@@ -4,6 +4,7 @@
 //! | parameter   | type    | default    | meaning                                              |
 //! |-------------|---------|------------|------------------------------------------------------|
 //! | `normalmap` | texture | (required) | tangent-space normals encoded as rgb = (n + 1) / 2 (load it with `raw`) |
+//! | `tangent_space` | string | `dpdu` | `dpdu` (Mitsuba 3) or `mikktspace` (maps baked by Blender, Substance, glTF) |
 //! | (nested)    | bsdf    | (required) | the material whose frame is perturbed                |
 //!
 //! ```xml
@@ -25,6 +26,15 @@
 //! `normalmap`; the tangent-space convention is the common one of normal
 //! maps baked for ∂p/∂u-aligned tangents (Cohen et al. 1998, "Appearance-
 //! preserving simplification").
+//!
+//! `tangent_space="mikktspace"` reads the map in MikkTSpace (Mikkelsen
+//! 2008) instead, the frame that baking tools and glTF use: x along the
+//! mesh's interpolated per-vertex tangent made orthogonal to the shading
+//! normal, y along sign · n × tangent. Meshes under such a BSDF get their
+//! tangents computed at load (`shape/mesh.rs`); a mesh without uvs has
+//! none and is an error. On analytic shapes ∂p/∂u is already a smooth
+//! tangent and is used as with `dpdu`. On a mesh with a uniform uv mapping
+//! the two agree.
 
 use super::perturbed::{self, Perturbation};
 use crate::interaction::SurfaceInteraction;
@@ -40,6 +50,8 @@ pub struct NormalMap {
     pub normalmap: Tex,
     /// The nested BSDF, by index.
     pub nested: u32,
+    /// Read the map in MikkTSpace (else in the ∂p/∂u frame).
+    pub mikktspace: bool,
 }
 
 impl NormalMap {
@@ -48,10 +60,12 @@ impl NormalMap {
         let normalmap = p
             .texture("normalmap", ColorKind::Unbounded)?
             .ok_or_else(|| p.error("needs a \"normalmap\" texture"))?;
+        let mikktspace = p.choice("tangent_space", &["dpdu", "mikktspace"])? == 1;
         match p.bsdfs()?.as_slice() {
             [(nested, _)] => Ok(Self {
                 normalmap,
                 nested: *nested,
+                mikktspace,
             }),
             kids => Err(p.error(&format!(
                 "needs exactly one nested BSDF, found {}",
@@ -66,10 +80,31 @@ impl NormalMap {
         let n = (self.normalmap.eval(m, si) * 2.0 - Vec3::ONE)
             .try_normalize()
             .unwrap_or(Vec3::Z);
+        if self.mikktspace && si.tangent.w != 0.0 {
+            return mikktspace_perturbation(n, si);
+        }
         Perturbation {
             n,
             dpdu: si.to_local(si.dpdu),
         }
+    }
+}
+
+/// The map's normal `n` read in the MikkTSpace frame of the hit: tangent
+/// made orthogonal to the shading normal, bitangent sign · normal ×
+/// tangent (both in shading-frame coordinates).
+fn mikktspace_perturbation(n: Vec3, si: &SurfaceInteraction) -> Perturbation {
+    let t = si.to_local(si.tangent.truncate());
+    let Some(t) = Vec3::new(t.x, t.y, 0.0).try_normalize() else {
+        return Perturbation {
+            n,
+            dpdu: si.to_local(si.dpdu),
+        };
+    };
+    let b = Vec3::Z.cross(t) * si.tangent.w.signum();
+    Perturbation {
+        n: (t * n.x + b * n.y + Vec3::Z * n.z).normalize(),
+        dpdu: t,
     }
 }
 
@@ -89,6 +124,7 @@ pub(crate) mod tests {
             Bsdf::NormalMap(NormalMap {
                 normalmap: Tex::Const((n.normalize() + Vec3::ONE) * 0.5),
                 nested: 0,
+                mikktspace: false,
             }),
         ]
     }
@@ -161,5 +197,41 @@ pub(crate) mod tests {
         let wo = Vec3::Z;
         let from = |x: f32| m.bsdfs[1].eval(&m, &ctx, &si, wo, Vec3::new(x, 0.0, 0.6).normalize());
         assert!(from(0.8).x > 1.5 * from(-0.8).x);
+    }
+
+    #[test]
+    fn mikktspace_frame_follows_the_tangent_and_its_sign() {
+        let map = Vec3::new(0.5, 0.3, 0.8);
+        let dpdu_mode = Materials::with_bsdfs(tilted(map));
+        let mirrored = Materials::with_bsdfs(tilted(map * Vec3::new(1.0, -1.0, 1.0)));
+        let mut mikk = tilted(map);
+        if let Bsdf::NormalMap(n) = &mut mikk[1] {
+            n.mikktspace = true;
+        }
+        let mikk = Materials::with_bsdfs(mikk);
+        let ctx = BsdfContext::default();
+        let (wo, wi) = (
+            Vec3::new(0.3, 0.1, 0.9).normalize(),
+            Vec3::new(-0.5, 0.4, 0.7).normalize(),
+        );
+        let eval = |m: &Materials, si: &SurfaceInteraction| m.bsdfs[1].eval(m, &ctx, si, wo, wi);
+        let close = |a: crate::Rgb, b: crate::Rgb| (a - b).abs().max_element() < 1e-5;
+        // Tangent along ∂p/∂u (x; not unit, not quite in the plane), sign
+        // +1: the same frame as `dpdu`; sign −1 flips the map's y.
+        let along = |w: f32| SurfaceInteraction {
+            tangent: glam::Vec4::new(2.0, 0.0, 0.3, w),
+            ..flat_si()
+        };
+        assert!(close(
+            eval(&mikk, &along(1.0)),
+            eval(&dpdu_mode, &flat_si())
+        ));
+        assert!(close(
+            eval(&mikk, &along(-1.0)),
+            eval(&mirrored, &flat_si())
+        ));
+        assert!(!close(eval(&mikk, &along(1.0)), eval(&mikk, &along(-1.0))));
+        // Without a tangent (analytic shapes), ∂p/∂u.
+        assert!(close(eval(&mikk, &flat_si()), eval(&dpdu_mode, &flat_si())));
     }
 }

@@ -262,6 +262,7 @@ pub(crate) fn make_interaction(
         bary: Vec2::ZERO,
         vertices: [0; 3],
         attributes: crate::texture::NO_ATTRIBUTES,
+        tangent: glam::Vec4::ZERO,
     }
 }
 

@@ -287,6 +287,7 @@ mod tests {
             bary,
             vertices: [1, 2, 3],
             attributes: 1,
+            tangent: glam::Vec4::ZERO,
             ..flat_si()
         }
     }
