@@ -455,6 +455,6 @@ fn normalmap_on_a_mesh_without_uvs_renders() {
         "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n",
     );
     let body = "\t<shape type=\"obj\">\n\t\t<string name=\"filename\" value=\"quad.obj\"/>\n\t\t<bsdf type=\"normalmap\">\n\t\t\t<rgb name=\"normalmap\" value=\"0.7, 0.5, 0.9\"/>\n\t\t\t<bsdf type=\"diffuse\"/>\n\t\t</bsdf>\n\t</shape>";
-    dir.write("scene.xml", &scene(body));
+    dir.write("scene.xml", scene(body));
     render_succeeds(&dir);
 }
