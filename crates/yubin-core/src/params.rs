@@ -57,12 +57,55 @@ pub enum ColorKind {
     Illuminant,
 }
 
+/// Families of plugins nested in another object (besides BSDFs and
+/// textures): a sensor's film and sampler, a film's reconstruction
+/// filter, an integrator wrapped by another.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Family {
+    /// `<film>`.
+    Film,
+    /// `<sampler>`.
+    Sampler,
+    /// `<rfilter>`.
+    Rfilter,
+    /// `<integrator>`.
+    Integrator,
+}
+
+/// The constructor of `p`'s plugin type in a family's plugin table
+/// (`family` names it in messages, e.g. "integrator"); an unknown type is
+/// an error listing the known ones, or `known` when given.
+pub fn plugin_of<T: Copy>(
+    p: &dyn Params,
+    family: &str,
+    table: &[(&str, T)],
+    known: Option<&str>,
+) -> Result<T, ParamError> {
+    let kind = p.plugin_type();
+    table
+        .iter()
+        .find(|(name, _)| *name == kind)
+        .map(|(_, build)| *build)
+        .ok_or_else(|| {
+            let names: Vec<&str> = table.iter().map(|(name, _)| *name).collect();
+            let known = known.map_or_else(|| names.join(", "), str::to_owned);
+            p.error(&format!(
+                "unknown {family} type \"{kind}\" (known: {known})"
+            ))
+        })
+}
+
 /// One object of a scene description, as a plugin sees it. Getters return
 /// `Ok(None)` when the parameter is absent and an error naming its line when
 /// it has the wrong type; whatever they return is marked as read.
 pub trait Params {
     /// How messages name the object: `bsdf "roughconductor"`.
     fn describe(&self) -> String;
+    /// The object's plugin type string (`roughconductor`).
+    fn plugin_type(&self) -> String;
+    /// The object's one nested object of `family`, if any (more than one
+    /// is an error).
+    fn child(&mut self, family: Family) -> Result<Option<Box<dyn Params + '_>>, ParamError>;
     /// An error whose message is `msg` prefixed by the location of parameter
     /// `name` (of the object itself when `name` is `None` or absent).
     fn error_at(&self, name: Option<&str>, msg: &str) -> ParamError;
@@ -168,6 +211,31 @@ pub trait Params {
             Err(self.param_error(name, &format!("must be positive, not {v}")))
         }
     }
+
+    /// A positive integer, `default` when absent.
+    fn positive_integer_or(&mut self, name: &str, default: i64) -> Result<u32, ParamError> {
+        let v = self.integer_or(name, default)?;
+        u32::try_from(v)
+            .ok()
+            .filter(|&v| v > 0)
+            .ok_or_else(|| self.param_error(name, &format!("must be a positive integer, not {v}")))
+    }
+
+    /// Marks parameters that yubin accepts but does not use as read, with
+    /// a warning for each one present saying `why`.
+    fn warn_ignored(&mut self, names: &[&str], why: &str) {
+        for name in names {
+            if self.has(name) {
+                self.mark_ignored(name);
+                let msg = format!(
+                    "ignoring parameter \"{name}\" of {} ({why})",
+                    self.describe()
+                );
+                self.warn(Some(name), &msg);
+            }
+        }
+    }
+
     /// One of `choices` (the first is the default).
     fn choice(&mut self, name: &str, choices: &[&str]) -> Result<usize, ParamError> {
         let Some(v) = self.string(name)? else {

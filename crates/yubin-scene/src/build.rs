@@ -25,13 +25,10 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 use yubin_core::bsdf::Bsdf;
-use yubin_core::camera::{Camera, FovAxis, Perspective};
-use yubin_core::film::Film;
-use yubin_core::filter::Filter;
-use yubin_core::integrator::{DirectIntegrator, Integrator, MomentIntegrator, PathIntegrator};
+use yubin_core::camera::Sensor;
+use yubin_core::integrator::{Integrator, PathIntegrator};
 use yubin_core::math::Transform;
 use yubin_core::params::{ColorKind, ParamError, Params};
-use yubin_core::sampler::{Independent, Sampler, Sobol};
 use yubin_core::shape::{
     cube::cube_mesh_with, Cylinder, Disk, MeshShape, Rectangle, Shape, Sphere, TriangleMesh,
 };
@@ -180,204 +177,27 @@ fn transform_of(obj: &Object, name: &str) -> Result<Transform, SceneError> {
     })
 }
 
-/// `max_depth`: −1 (unlimited) or a non-negative path length.
-fn max_depth(obj: &Object) -> Result<i32, SceneError> {
-    let v = obj.integer_or("max_depth", -1)?;
-    i32::try_from(v).ok().filter(|&d| d >= -1).ok_or_else(|| {
-        obj.param_error(
-            "max_depth",
-            format!("must be -1 (unlimited) or at least 0, not {v}"),
-        )
-    })
-}
-
 /// True for positive numbers, false for NaN.
 fn is_positive(v: f32) -> bool {
     v > 0.0
 }
 
-fn positive_int(obj: &Object, name: &str, default: i64) -> Result<u32, SceneError> {
-    let v = obj.integer_or(name, default)?;
-    u32::try_from(v)
-        .ok()
-        .filter(|&v| v > 0)
-        .ok_or_else(|| obj.param_error(name, format!("must be a positive integer, not {v}")))
-}
-
 impl Builder<'_> {
-    fn warn_ignored(&mut self, obj: &Object, names: &[&str], why: &str) {
-        for name in names {
-            if obj.has(name) {
-                obj.mark_ignored(name);
-                self.warnings.push(format!(
-                    "{}: ignoring parameter \"{name}\" of {} ({why})",
-                    obj.loc_of(name),
-                    obj.describe()
-                ));
-            }
-        }
-    }
-
     fn integrator(&mut self, obj: &Object) -> Result<Box<dyn Integrator>, SceneError> {
-        Ok(match obj.plugin_type.as_str() {
-            "path" => Box::new(PathIntegrator {
-                max_depth: max_depth(obj)?,
-                rr_depth: obj.integer_or("rr_depth", 5)?.clamp(0, u32::MAX as i64) as u32,
-                hide_emitters: obj.boolean_or("hide_emitters", false)?,
-            }),
-            "direct" => {
-                let shading = obj.integer_or("shading_samples", 1)?.max(0) as u32;
-                Box::new(DirectIntegrator {
-                    emitter_samples: obj.integer_or("emitter_samples", shading as i64)?.max(0)
-                        as u32,
-                    bsdf_samples: obj.integer_or("bsdf_samples", shading as i64)?.max(0) as u32,
-                    hide_emitters: obj.boolean_or("hide_emitters", false)?,
-                })
-            }
-            "moment" => {
-                let nested = obj
-                    .single_child(Category::Integrator)?
-                    .ok_or_else(|| obj.error("the moment integrator needs a nested integrator"))?;
-                let nested = self.integrator(&nested.object)?;
-                Box::new(MomentIntegrator { nested })
-            }
-            _ => return Err(unknown_type(obj, "path, direct, moment")),
-        })
+        Ok(yubin_core::integrator::from_params(&mut ObjParams {
+            obj,
+            b: self,
+        })?)
     }
 
     /// Builds camera, film and sampler; returns the sampler's seed.
     fn sensor(&mut self, obj: &Object) -> Result<u32, SceneError> {
-        if obj.plugin_type != "perspective" {
-            return Err(unknown_type(obj, "perspective"));
-        }
-        let (film, pixel_size) = match obj.single_child(Category::Film)? {
-            Some(c) => self.film(&c.object)?,
-            None => (Film::new(768, 576, Filter::default()), [768, 576]),
-        };
-        let (sampler, seed) = match obj.single_child(Category::Sampler)? {
-            Some(c) => self.sampler(&c.object)?,
-            None => (Sampler::Independent(Independent { sample_count: 4 }), 0),
-        };
-        let (fov, fov_axis) = field_of_view(obj)?;
-        let near = obj.float_or("near_clip", 0.01)?;
-        let far = obj.float_or("far_clip", 10_000.0)?;
-        if !(near > 0.0 && far > near) {
-            return Err(obj.param_error(
-                "near_clip",
-                format!("clip planes must satisfy 0 < near < far (near {near}, far {far})"),
-            ));
-        }
-        // Every projective camera of Mitsuba reads `focus_distance`; a
-        // pinhole has no focus, so it only has to be a valid distance.
-        if let Some(d) = obj.float("focus_distance")? {
-            if !is_positive(d) {
-                return Err(obj.param_error("focus_distance", "must be positive"));
-            }
-        }
-        let to_world = transform_of(obj, "to_world")?;
-        // Mitsuba's to_world may carry a scale; the camera uses its rigid part.
-        let m = to_world.m;
-        let rigid = glam::Affine3A::from_cols(
-            m.matrix3.x_axis.normalize(),
-            m.matrix3.y_axis.normalize(),
-            m.matrix3.z_axis.normalize(),
-            m.translation,
-        );
-        self.warn_ignored(
-            obj,
-            &["shutter_open", "shutter_close"],
-            "no motion blur yet",
-        );
-        self.sb.camera(Camera::Perspective(Perspective::new(
-            rigid,
-            fov,
-            fov_axis,
-            pixel_size[0],
-            pixel_size[1],
-            near,
-            far,
-        )));
-        self.sb.film(film).sampler(sampler);
-        Ok(seed)
-    }
-
-    fn film(&mut self, obj: &Object) -> Result<(Film, [u32; 2]), SceneError> {
-        if obj.plugin_type != "hdrfilm" {
-            return Err(unknown_type(obj, "hdrfilm"));
-        }
-        let width = positive_int(obj, "width", 768)?;
-        let height = positive_int(obj, "height", 576)?;
-        let ox = obj.integer_or("crop_offset_x", 0)?.max(0) as u32;
-        let oy = obj.integer_or("crop_offset_y", 0)?.max(0) as u32;
-        let cw = positive_int(obj, "crop_width", (width.saturating_sub(ox)).max(1) as i64)?;
-        let ch = positive_int(
-            obj,
-            "crop_height",
-            (height.saturating_sub(oy)).max(1) as i64,
-        )?;
-        if ox + cw > width || oy + ch > height {
-            return Err(obj.error(format!(
-                "the crop window {cw}x{ch}+{ox}+{oy} does not fit in the {width}x{height} film"
-            )));
-        }
-        for (name, allowed) in [
-            (
-                "pixel_format",
-                &["rgb", "rgba", "luminance", "luminance_alpha", "xyz", "xyza"][..],
-            ),
-            ("component_format", &["float16", "float32", "uint32"][..]),
-        ] {
-            if let Some(v) = obj.string(name)? {
-                if !allowed.contains(&v) {
-                    return Err(obj.param_error(
-                        name,
-                        format!("must be one of {}, not \"{v}\"", allowed.join(", ")),
-                    ));
-                }
-            }
-        }
-        if obj.boolean("sample_border")? == Some(true) {
-            self.warnings.push(format!("{}: sample_border is not supported; edge pixels see only samples from inside the film", obj.loc_of("sample_border")));
-        }
-        self.warn_ignored(
-            obj,
-            &["file_format", "banner", "high_quality_edges", "attach_log"],
-            "a parameter of older Mitsuba versions; the output file is chosen with -o",
-        );
-        let filter = match obj.single_child(Category::Rfilter)? {
-            Some(c) => rfilter(&c.object)?,
-            None => Filter::default(),
-        };
-        let film = Film {
-            width,
-            height,
-            crop_offset: [ox, oy],
-            crop_size: [cw, ch],
-            filter,
-        };
-        Ok((film, [width, height]))
-    }
-
-    fn sampler(&mut self, obj: &Object) -> Result<(Sampler, u32), SceneError> {
-        let sample_count = positive_int(obj, "sample_count", 4)?;
-        let seed = obj.integer_or("seed", 0)? as u32;
-        self.warn_ignored(
-            obj,
-            &["light_samples"],
-            "a Mitsuba 0.6 parameter; Mitsuba 3 has none",
-        );
-        let sampler = match obj.plugin_type.as_str() {
-            "independent" => Sampler::Independent(Independent { sample_count }),
-            "sobol" => Sampler::Sobol(Sobol { sample_count }),
-            "stratified" | "multijitter" | "orthogonal" | "ldsampler" => {
-                obj.mark_ignored("jitter");
-                obj.mark_ignored("strength");
-                self.warnings.push(format!("{}: sampler \"{}\" renders with yubin's Owen-scrambled Sobol sampler", obj.loc, obj.plugin_type));
-                Sampler::Sobol(Sobol { sample_count })
-            }
-            _ => return Err(unknown_type(obj, "independent, sobol (stratified, multijitter, orthogonal and ldsampler map to sobol)")),
-        };
-        Ok((sampler, seed))
+        let sensor = Sensor::from_params(&mut ObjParams { obj, b: self })?;
+        self.sb
+            .camera(sensor.camera)
+            .film(sensor.film)
+            .sampler(sensor.sampler);
+        Ok(sensor.seed)
     }
 
     /// Builds a BSDF (once per shared object); returns its index.
@@ -731,81 +551,4 @@ impl Builder<'_> {
         self.sb.add_emitter(e);
         Ok(())
     }
-}
-
-/// `fov` along `fov_axis`, or, without `fov`, the diagonal field of view
-/// of a 35 mm-equivalent `focal_length` (default "50mm"), as Mitsuba does.
-fn field_of_view(obj: &Object) -> Result<(f32, FovAxis), SceneError> {
-    let axis = match obj.string_or("fov_axis", "x")? {
-        "x" => FovAxis::X,
-        "y" => FovAxis::Y,
-        "diagonal" => FovAxis::Diagonal,
-        "smaller" => FovAxis::Smaller,
-        "larger" => FovAxis::Larger,
-        other => {
-            return Err(obj.param_error(
-                "fov_axis",
-                format!("must be x, y, diagonal, smaller or larger, not \"{other}\""),
-            ))
-        }
-    };
-    let (fov, axis) = match obj.float("fov")? {
-        Some(fov) => {
-            if obj.has("focal_length") {
-                return Err(
-                    obj.param_error("focal_length", "give either fov or focal_length, not both")
-                );
-            }
-            (fov, axis)
-        }
-        None => {
-            let text = obj.string_or("focal_length", "50mm")?;
-            let mm: f32 = text
-                .trim()
-                .trim_end_matches("mm")
-                .trim()
-                .parse()
-                .ok()
-                .filter(|f: &f32| *f > 0.0)
-                .ok_or_else(|| {
-                    obj.param_error(
-                        "focal_length",
-                        format!("must be a length like \"50mm\", not \"{text}\""),
-                    )
-                })?;
-            let diagonal_mm = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
-            (
-                (2.0 * (diagonal_mm / (2.0 * mm)).atan()).to_degrees(),
-                FovAxis::Diagonal,
-            )
-        }
-    };
-    if !(fov > 0.0 && fov < 180.0) {
-        return Err(obj.param_error(
-            "fov",
-            format!("must be between 0 and 180 degrees, not {fov}"),
-        ));
-    }
-    Ok((fov, axis))
-}
-
-fn rfilter(obj: &Object) -> Result<Filter, SceneError> {
-    Ok(match obj.plugin_type.as_str() {
-        "box" => Filter::Box,
-        "tent" => {
-            let radius = obj.float_or("radius", 1.0)?;
-            if !is_positive(radius) {
-                return Err(obj.param_error("radius", "must be positive"));
-            }
-            Filter::Tent { radius }
-        }
-        "gaussian" => {
-            let stddev = obj.float_or("stddev", 0.5)?;
-            if !is_positive(stddev) {
-                return Err(obj.param_error("stddev", "must be positive"));
-            }
-            Filter::Gaussian { stddev }
-        }
-        _ => return Err(unknown_type(obj, "box, tent, gaussian")),
-    })
 }

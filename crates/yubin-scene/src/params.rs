@@ -10,7 +10,7 @@ use crate::desc::{Category, Object, Spectrum, Value};
 use crate::error::SceneError;
 use glam::{DMat4, Vec3};
 use yubin_core::bsdf::Bsdf;
-use yubin_core::params::{ColorKind, ParamError, Params};
+use yubin_core::params::{ColorKind, Family, ParamError, Params};
 use yubin_core::spectrum::{constant_spectrum_to_rgb, spectrum_to_rgb, Rgb};
 use yubin_core::texture::Tex;
 
@@ -56,6 +56,27 @@ impl ObjParams<'_, '_, '_> {
 impl Params for ObjParams<'_, '_, '_> {
     fn describe(&self) -> String {
         self.obj.describe()
+    }
+
+    fn plugin_type(&self) -> String {
+        self.obj.plugin_type.clone()
+    }
+
+    fn child(&mut self, family: Family) -> Result<Option<Box<dyn Params + '_>>, ParamError> {
+        let category = match family {
+            Family::Film => Category::Film,
+            Family::Sampler => Category::Sampler,
+            Family::Rfilter => Category::Rfilter,
+            Family::Integrator => Category::Integrator,
+        };
+        let obj = self.obj;
+        let child = obj.single_child(category).map_err(to_param)?;
+        Ok(child.map(|c| {
+            Box::new(ObjParams {
+                obj: &c.object,
+                b: &mut *self.b,
+            }) as Box<dyn Params + '_>
+        }))
     }
 
     fn error_at(&self, name: Option<&str>, msg: &str) -> ParamError {

@@ -5,8 +5,58 @@ mod perspective;
 
 pub use perspective::{FovAxis, Perspective};
 
+use crate::film::Film;
+use crate::filter::Filter;
 use crate::math::Ray;
+use crate::params::{plugin_of, Family, ParamError, Params};
+use crate::sampler::{Independent, Sampler};
 use glam::Vec2;
+
+/// Builds a camera plugin from its parameters and its film's size.
+pub type CameraFromParams = fn(&mut dyn Params, [u32; 2]) -> Result<Camera, ParamError>;
+
+/// Every sensor plugin: its scene type string and constructor.
+pub const PLUGINS: &[(&str, CameraFromParams)] = &[("perspective", |p, size| {
+    Ok(Camera::Perspective(Perspective::from_params(p, size)?))
+})];
+
+/// What a `<sensor>` holds: its camera, its film and its sampler, with the
+/// sampler's seed.
+#[derive(Clone, Copy, Debug)]
+pub struct Sensor {
+    /// The camera.
+    pub camera: Camera,
+    /// The film (its size, crop window and filter).
+    pub film: Film,
+    /// The sampler.
+    pub sampler: Sampler,
+    /// The sampler's `seed`.
+    pub seed: u32,
+}
+
+impl Sensor {
+    /// Builds the sensor `p` describes, with its nested film (default: a
+    /// 768×576 `hdrfilm`) and sampler (default: 4 spp `independent`), as
+    /// Mitsuba does.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let build = plugin_of(p, "sensor", PLUGINS, None)?;
+        let film = match p.child(Family::Film)? {
+            Some(mut f) => Film::from_params(f.as_mut())?,
+            None => Film::new(768, 576, Filter::default()),
+        };
+        let (sampler, seed) = match p.child(Family::Sampler)? {
+            Some(mut s) => Sampler::from_params(s.as_mut())?,
+            None => (Sampler::Independent(Independent { sample_count: 4 }), 0),
+        };
+        let camera = build(p, [film.width, film.height])?;
+        Ok(Self {
+            camera,
+            film,
+            sampler,
+            seed,
+        })
+    }
+}
 
 /// A camera.
 #[derive(Clone, Copy, Debug, PartialEq)]

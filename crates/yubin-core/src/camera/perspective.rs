@@ -4,6 +4,7 @@
 //! |-------------|-----------|---------|--------------------------------------------------------|
 //! | `fov`       | float     | —       | field of view in degrees, along `fov_axis`             |
 //! | `fov_axis`  | string    | `x`     | `x`, `y`, `diagonal`, `smaller` or `larger`            |
+//! | `focal_length` | string | `50mm` | instead of `fov`: a 35 mm-equivalent focal length (diagonal field of view) |
 //! | `near_clip` | float     | 0.01    | nothing closer than this (along the view axis) is seen |
 //! | `far_clip`  | float     | 10000   | nothing farther                                        |
 //! | `to_world`  | transform | identity| camera to world; the camera looks down +z, +y is up     |
@@ -21,6 +22,7 @@
 //! matrices (columns left, up, forward, origin) produce unmirrored images.
 
 use crate::math::Ray;
+use crate::params::{ParamError, Params};
 use glam::{Affine3A, Vec2, Vec3};
 
 /// The axis along which `fov` is measured.
@@ -51,6 +53,37 @@ pub struct Perspective {
 }
 
 impl Perspective {
+    /// Builds the camera from its scene parameters, for a film of
+    /// `size` pixels.
+    pub fn from_params(p: &mut dyn Params, size: [u32; 2]) -> Result<Self, ParamError> {
+        let (fov, fov_axis) = field_of_view(p)?;
+        let near = p.float_or("near_clip", 0.01)?;
+        let far = p.float_or("far_clip", 10_000.0)?;
+        if !(near > 0.0 && far > near) {
+            return Err(p.param_error(
+                "near_clip",
+                &format!("clip planes must satisfy 0 < near < far (near {near}, far {far})"),
+            ));
+        }
+        // Every projective camera of Mitsuba reads `focus_distance`; a
+        // pinhole has no focus, so it only has to be a valid distance.
+        if let Some(d) = p.float("focus_distance")? {
+            if d.is_nan() || d <= 0.0 {
+                return Err(p.param_error("focus_distance", "must be positive"));
+            }
+        }
+        // Mitsuba's to_world may carry a scale; the camera uses its rigid part.
+        let m = p.transform_or_identity("to_world")?.m;
+        let rigid = Affine3A::from_cols(
+            m.matrix3.x_axis.normalize(),
+            m.matrix3.y_axis.normalize(),
+            m.matrix3.z_axis.normalize(),
+            m.translation,
+        );
+        p.warn_ignored(&["shutter_open", "shutter_close"], "no motion blur yet");
+        Ok(Self::new(rigid, fov, fov_axis, size[0], size[1], near, far))
+    }
+
     /// A camera for a `width`×`height` film.
     pub fn new(
         to_world: Affine3A,
@@ -105,6 +138,62 @@ impl Perspective {
             t_max: self.far_clip / (local.z * inv_len),
         }
     }
+}
+
+/// `fov` along `fov_axis`, or, without `fov`, the diagonal field of view
+/// of a 35 mm-equivalent `focal_length` (default "50mm"), as Mitsuba does.
+fn field_of_view(p: &mut dyn Params) -> Result<(f32, FovAxis), ParamError> {
+    let axis = match p.string_or("fov_axis", "x")?.as_str() {
+        "x" => FovAxis::X,
+        "y" => FovAxis::Y,
+        "diagonal" => FovAxis::Diagonal,
+        "smaller" => FovAxis::Smaller,
+        "larger" => FovAxis::Larger,
+        other => {
+            return Err(p.param_error(
+                "fov_axis",
+                &format!("must be x, y, diagonal, smaller or larger, not \"{other}\""),
+            ))
+        }
+    };
+    let (fov, axis) = match p.float("fov")? {
+        Some(fov) => {
+            if p.has("focal_length") {
+                return Err(
+                    p.param_error("focal_length", "give either fov or focal_length, not both")
+                );
+            }
+            (fov, axis)
+        }
+        None => (focal_length_fov(p)?, FovAxis::Diagonal),
+    };
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(p.param_error(
+            "fov",
+            &format!("must be between 0 and 180 degrees, not {fov}"),
+        ));
+    }
+    Ok((fov, axis))
+}
+
+/// The diagonal field of view (degrees) of `focal_length` on 35 mm film.
+fn focal_length_fov(p: &mut dyn Params) -> Result<f32, ParamError> {
+    let text = p.string_or("focal_length", "50mm")?;
+    let mm: f32 = text
+        .trim()
+        .trim_end_matches("mm")
+        .trim()
+        .parse()
+        .ok()
+        .filter(|f: &f32| *f > 0.0)
+        .ok_or_else(|| {
+            p.param_error(
+                "focal_length",
+                &format!("must be a length like \"50mm\", not \"{text}\""),
+            )
+        })?;
+    let diagonal_mm = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
+    Ok((2.0 * (diagonal_mm / (2.0 * mm)).atan()).to_degrees())
 }
 
 #[cfg(test)]

@@ -15,6 +15,8 @@
 //! The Gaussian is shifted down by its value at the radius so that it
 //! reaches 0 there (no discontinuity), as in Mitsuba 3 and pbrt-v4 §8.8.
 
+use crate::params::{plugin_of, ParamError, Params};
+
 /// A separable reconstruction filter (closed enum).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Filter {
@@ -38,7 +40,40 @@ impl Default for Filter {
     }
 }
 
+/// Builds a filter plugin from its parameters.
+pub type FilterFromParams = fn(&mut dyn Params) -> Result<Filter, ParamError>;
+
+/// Every reconstruction filter plugin: its scene type string and constructor.
+pub const PLUGINS: &[(&str, FilterFromParams)] = &[
+    ("box", |_| Ok(Filter::Box)),
+    ("tent", |p| {
+        Ok(Filter::Tent {
+            radius: positive(p, "radius", 1.0)?,
+        })
+    }),
+    ("gaussian", |p| {
+        Ok(Filter::Gaussian {
+            stddev: positive(p, "stddev", 0.5)?,
+        })
+    }),
+];
+
+/// A positive float parameter, `default` when absent.
+fn positive(p: &mut dyn Params, name: &str, default: f32) -> Result<f32, ParamError> {
+    let v = p.float_or(name, default)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(p.param_error(name, "must be positive"))
+    }
+}
+
 impl Filter {
+    /// Builds the filter `p` describes, by its plugin type.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        plugin_of(p, "rfilter", PLUGINS, None)?(p)
+    }
+
     /// Support radius in pixels.
     pub fn radius(&self) -> f32 {
         match *self {

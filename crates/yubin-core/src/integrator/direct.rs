@@ -16,6 +16,7 @@
 use super::{environment_radiance, sample_light, surface_emission, Integrator};
 use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel};
 use crate::math::Ray;
+use crate::params::{ParamError, Params};
 use crate::sampler::SampleStream;
 use crate::{Rgb, Scene};
 
@@ -28,6 +29,19 @@ pub struct DirectIntegrator {
     pub bsdf_samples: u32,
     /// Hide directly visible emitters.
     pub hide_emitters: bool,
+}
+
+impl DirectIntegrator {
+    /// Builds the integrator from its scene parameters: `shading_samples`
+    /// is the default of both sample counts.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let shading = p.integer_or("shading_samples", 1)?.max(0);
+        Ok(Self {
+            emitter_samples: p.integer_or("emitter_samples", shading)?.max(0) as u32,
+            bsdf_samples: p.integer_or("bsdf_samples", shading)?.max(0) as u32,
+            hide_emitters: p.boolean_or("hide_emitters", false)?,
+        })
+    }
 }
 
 impl Default for DirectIntegrator {

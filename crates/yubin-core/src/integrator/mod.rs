@@ -14,8 +14,39 @@ pub use direct::DirectIntegrator;
 pub use moment::MomentIntegrator;
 pub use path::PathIntegrator;
 
+/// Builds an integrator plugin from its parameters.
+pub type IntegratorFromParams = fn(&mut dyn Params) -> Result<Box<dyn Integrator>, ParamError>;
+
+/// Every integrator plugin: its scene type string and constructor.
+pub const PLUGINS: &[(&str, IntegratorFromParams)] = &[
+    ("path", |p| Ok(Box::new(PathIntegrator::from_params(p)?))),
+    ("direct", |p| {
+        Ok(Box::new(DirectIntegrator::from_params(p)?))
+    }),
+    ("moment", |p| {
+        Ok(Box::new(MomentIntegrator::from_params(p)?))
+    }),
+];
+
+/// Builds the integrator `p` describes, by its plugin type.
+pub fn from_params(p: &mut dyn Params) -> Result<Box<dyn Integrator>, ParamError> {
+    plugin_of(p, "integrator", PLUGINS, None)?(p)
+}
+
+/// `max_depth`: −1 (unlimited) or a non-negative path length.
+pub(crate) fn max_depth_param(p: &mut dyn Params) -> Result<i32, ParamError> {
+    let v = p.integer_or("max_depth", -1)?;
+    i32::try_from(v).ok().filter(|&d| d >= -1).ok_or_else(|| {
+        p.param_error(
+            "max_depth",
+            &format!("must be -1 (unlimited) or at least 0, not {v}"),
+        )
+    })
+}
+
 use crate::interaction::SurfaceInteraction;
 use crate::math::Ray;
+use crate::params::{plugin_of, ParamError, Params};
 use crate::sampler::SampleStream;
 use crate::sampling::power_heuristic;
 use crate::{Rgb, Scene};

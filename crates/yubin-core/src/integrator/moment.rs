@@ -15,6 +15,7 @@
 
 use super::Integrator;
 use crate::math::Ray;
+use crate::params::{Family, ParamError, Params};
 use crate::sampler::SampleStream;
 use crate::{Rgb, Scene};
 
@@ -23,6 +24,18 @@ use crate::{Rgb, Scene};
 pub struct MomentIntegrator {
     /// The integrator whose samples are measured.
     pub nested: Box<dyn Integrator>,
+}
+
+impl MomentIntegrator {
+    /// Builds the integrator and the one it wraps from scene parameters.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let Some(mut nested) = p.child(Family::Integrator)? else {
+            return Err(p.error("the moment integrator needs a nested integrator"));
+        };
+        Ok(Self {
+            nested: super::from_params(nested.as_mut())?,
+        })
+    }
 }
 
 impl Integrator for MomentIntegrator {

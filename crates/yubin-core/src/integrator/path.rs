@@ -16,9 +16,11 @@
 //! The roulette survival probability is min(max(β)·η², 0.95), with β the
 //! throughput and η the accumulated relative index of refraction.
 
+use super::max_depth_param;
 use super::{environment_radiance, sample_light, surface_emission, Integrator};
 use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel};
 use crate::math::Ray;
+use crate::params::{ParamError, Params};
 use crate::sampler::SampleStream;
 use crate::{Rgb, Scene};
 
@@ -31,6 +33,17 @@ pub struct PathIntegrator {
     pub rr_depth: u32,
     /// Hide directly visible emitters.
     pub hide_emitters: bool,
+}
+
+impl PathIntegrator {
+    /// Builds the integrator from its scene parameters.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        Ok(Self {
+            max_depth: max_depth_param(p)?,
+            rr_depth: p.integer_or("rr_depth", 5)?.clamp(0, u32::MAX as i64) as u32,
+            hide_emitters: p.boolean_or("hide_emitters", false)?,
+        })
+    }
 }
 
 impl Default for PathIntegrator {

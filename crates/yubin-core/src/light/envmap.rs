@@ -507,6 +507,15 @@ mod tests {
     }
 
     impl Params for EnvParams {
+        fn plugin_type(&self) -> String {
+            "envmap".into()
+        }
+        fn child(
+            &mut self,
+            _: crate::params::Family,
+        ) -> Result<Option<Box<dyn Params + '_>>, ParamError> {
+            Ok(None)
+        }
         fn describe(&self) -> String {
             "emitter \"envmap\"".into()
         }

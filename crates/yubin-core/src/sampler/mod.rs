@@ -12,7 +12,38 @@ mod sobol;
 pub use independent::Independent;
 pub use sobol::Sobol;
 
+use crate::params::{plugin_of, ParamError, Params};
 use glam::Vec2;
+
+/// Builds a sampler plugin from its parameters and its sample count.
+pub type SamplerFromParams = fn(&mut dyn Params, u32) -> Result<Sampler, ParamError>;
+
+/// Every sampler plugin: its scene type string and constructor. Mitsuba's
+/// stratified samplers render with the Sobol sampler, with a warning.
+pub const PLUGINS: &[(&str, SamplerFromParams)] = &[
+    ("independent", |_, sample_count| {
+        Ok(Sampler::Independent(Independent { sample_count }))
+    }),
+    ("sobol", |_, sample_count| {
+        Ok(Sampler::Sobol(Sobol { sample_count }))
+    }),
+    ("stratified", sobol_stand_in),
+    ("multijitter", sobol_stand_in),
+    ("orthogonal", sobol_stand_in),
+    ("ldsampler", sobol_stand_in),
+];
+
+/// The Sobol sampler for one of Mitsuba's stratified samplers.
+fn sobol_stand_in(p: &mut dyn Params, sample_count: u32) -> Result<Sampler, ParamError> {
+    p.mark_ignored("jitter");
+    p.mark_ignored("strength");
+    let msg = format!(
+        "sampler \"{}\" renders with yubin's Owen-scrambled Sobol sampler",
+        p.plugin_type()
+    );
+    p.warn(None, &msg);
+    Ok(Sampler::Sobol(Sobol { sample_count }))
+}
 
 /// The sampler of a render (a closed enum, dispatched by hand).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -24,6 +55,20 @@ pub enum Sampler {
 }
 
 impl Sampler {
+    /// Builds the sampler `p` describes; returns it with its `seed`.
+    pub fn from_params(p: &mut dyn Params) -> Result<(Self, u32), ParamError> {
+        let sample_count = p.positive_integer_or("sample_count", 4)?;
+        let seed = p.integer_or("seed", 0)? as u32;
+        p.warn_ignored(
+            &["light_samples"],
+            "a Mitsuba 0.6 parameter; Mitsuba 3 has none",
+        );
+        let known =
+            "independent, sobol (stratified, multijitter, orthogonal and ldsampler map to sobol)";
+        let build = plugin_of(p, "sampler", PLUGINS, Some(known))?;
+        Ok((build(p, sample_count)?, seed))
+    }
+
     /// Samples per pixel.
     pub fn sample_count(&self) -> u32 {
         match self {

@@ -91,6 +91,15 @@ impl MapParams {
 }
 
 impl Params for MapParams {
+    fn plugin_type(&self) -> String {
+        "test".into()
+    }
+    fn child(
+        &mut self,
+        _: crate::params::Family,
+    ) -> Result<Option<Box<dyn Params + '_>>, ParamError> {
+        Ok(None)
+    }
     fn describe(&self) -> String {
         "test object".into()
     }
