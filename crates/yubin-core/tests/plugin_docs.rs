@@ -5,7 +5,7 @@
 //! A plugin file is a file in `src/<family>/` whose header begins with its
 //! backticked scene type string and a colon (`` //! `diffuse`: ... ``).
 //! Files that document several plugins at once (a header with an XML
-//! snippet that does not begin that way, e.g. `filter/mod.rs`) are listed
+//! snippet that does not begin that way, e.g. `shape/mesh.rs`) are listed
 //! after the family's plugin files, headed by their path.
 //!
 //! Regenerate with `YUBIN_UPDATE_DOCS=1 cargo test -p yubin-core --test plugin_docs`.
@@ -23,6 +23,7 @@ const FAMILIES: &[(&str, &str)] = &[
     ("phase", "phase"),
     ("volume", "volume"),
     ("camera", "sensor"),
+    ("film", "film"),
     ("filter", "rfilter"),
     ("sampler", "sampler"),
     ("integrator", "integrator"),

@@ -1,19 +1,11 @@
-//! Pixel reconstruction filters. Each sample is splatted to every pixel
-//! within the filter's radius with weight f(x)·f(y) of its offset from the
-//! pixel centre; a pixel's value is Σ w L / Σ w.
-//!
-//! | type       | parameter | default | radius    |
-//! |------------|-----------|---------|-----------|
-//! | `box`      | —         | —       | 0.5       |
-//! | `tent`     | `radius`  | 1       | radius    |
-//! | `gaussian` | `stddev`  | 0.5     | 4·stddev  |
-//!
-//! ```xml
-//! <rfilter type="gaussian"><float name="stddev" value="0.5"/></rfilter>
-//! ```
-//!
-//! The Gaussian is shifted down by its value at the radius so that it
-//! reaches 0 there (no discontinuity), as in Mitsuba 3 and pbrt-v4 §8.8.
+//! Pixel reconstruction filters (closed enum): `box`, `tent`, `gaussian`,
+//! one file each. Each sample is splatted to every pixel within the
+//! filter's radius with weight f(x)·f(y) of its offset from the pixel
+//! centre; a pixel's value is Σ w L / Σ w.
+
+mod r#box;
+mod gaussian;
+mod tent;
 
 use crate::params::{plugin_of, ParamError, Params};
 
@@ -45,17 +37,9 @@ pub type FilterFromParams = fn(&mut dyn Params) -> Result<Filter, ParamError>;
 
 /// Every reconstruction filter plugin: its scene type string and constructor.
 pub const PLUGINS: &[(&str, FilterFromParams)] = &[
-    ("box", |_| Ok(Filter::Box)),
-    ("tent", |p| {
-        Ok(Filter::Tent {
-            radius: positive(p, "radius", 1.0)?,
-        })
-    }),
-    ("gaussian", |p| {
-        Ok(Filter::Gaussian {
-            stddev: positive(p, "stddev", 0.5)?,
-        })
-    }),
+    ("box", r#box::from_params),
+    ("tent", tent::from_params),
+    ("gaussian", gaussian::from_params),
 ];
 
 /// A positive float parameter, `default` when absent.

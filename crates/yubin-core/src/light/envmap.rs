@@ -497,91 +497,6 @@ mod tests {
         }
     }
 
-    /// A parameter set for `from_params`, holding only what an envmap
-    /// reads.
-    struct EnvParams {
-        filename: Option<&'static str>,
-        scale: Option<f32>,
-        to_world: Option<DMat4>,
-        mis_compensation: Option<bool>,
-    }
-
-    impl Params for EnvParams {
-        fn plugin_type(&self) -> String {
-            "envmap".into()
-        }
-        fn child(
-            &mut self,
-            _: crate::params::Family,
-        ) -> Result<Option<Box<dyn Params + '_>>, ParamError> {
-            Ok(None)
-        }
-        fn describe(&self) -> String {
-            "emitter \"envmap\"".into()
-        }
-        fn error_at(&self, _: Option<&str>, msg: &str) -> ParamError {
-            ParamError(msg.into())
-        }
-        fn has(&self, _: &str) -> bool {
-            false
-        }
-        fn float(&mut self, name: &str) -> Result<Option<f32>, ParamError> {
-            Ok(if name == "scale" { self.scale } else { None })
-        }
-        fn integer(&mut self, _: &str) -> Result<Option<i64>, ParamError> {
-            Ok(None)
-        }
-        fn boolean(&mut self, name: &str) -> Result<Option<bool>, ParamError> {
-            Ok(if name == "mis_compensation" {
-                self.mis_compensation
-            } else {
-                None
-            })
-        }
-        fn string(&mut self, _: &str) -> Result<Option<String>, ParamError> {
-            Ok(None)
-        }
-        fn point(&mut self, _: &str) -> Result<Option<Vec3>, ParamError> {
-            Ok(None)
-        }
-        fn vector(&mut self, _: &str) -> Result<Option<Vec3>, ParamError> {
-            Ok(None)
-        }
-        fn transform(&mut self, name: &str) -> Result<Option<DMat4>, ParamError> {
-            Ok(if name == "to_world" {
-                self.to_world
-            } else {
-                None
-            })
-        }
-        fn color(
-            &mut self,
-            _: &str,
-            _: crate::params::ColorKind,
-        ) -> Result<Option<Rgb>, ParamError> {
-            Ok(None)
-        }
-        fn texture(
-            &mut self,
-            _: &str,
-            _: crate::params::ColorKind,
-        ) -> Result<Option<crate::texture::Tex>, ParamError> {
-            Ok(None)
-        }
-        fn bsdfs(&mut self) -> Result<Vec<(u32, crate::bsdf::Bsdf)>, ParamError> {
-            Ok(Vec::new())
-        }
-        fn image(&mut self, name: &str) -> Result<Option<u32>, ParamError> {
-            // The front end would load the file; here it is image 0.
-            Ok((name == "filename")
-                .then_some(())
-                .and(self.filename)
-                .map(|_| 0))
-        }
-        fn mark_ignored(&mut self, _: &str) {}
-        fn warn(&mut self, _: Option<&str>, _: &str) {}
-    }
-
     /// Through the plugin table and the scene builder, as a front end
     /// does it: the image goes into the scene's table, the emitter from
     /// `PLUGINS` into `add_emitter`, and `build` makes its distribution.
@@ -590,16 +505,19 @@ mod tests {
         use crate::light::{EmitterModel, PLUGINS};
         use crate::scene::SceneBuilder;
         let rotation = Mat3::from_cols_array_2d(&ROTATION).transpose();
-        let mut params = EnvParams {
-            filename: Some("lit.exr"),
-            scale: Some(2.5),
-            to_world: Some(DMat4::from_mat3(rotation.as_dmat3())),
-            mis_compensation: None,
+        use crate::testing::params::{MapParams, Value};
+        // The front end would load the file; here it is image 0.
+        let params = || {
+            MapParams::new().float("scale", 2.5).with(
+                "to_world",
+                Value::Transform(DMat4::from_mat3(rotation.as_dmat3())),
+            )
         };
         let (_, from_params) = PLUGINS.iter().find(|(name, _)| *name == "envmap").unwrap();
         let mut builder = SceneBuilder::new();
         assert_eq!(builder.add_image(mitsuba_test_image()), 0);
-        let e = builder.add_emitter(from_params(&mut params).unwrap());
+        let e = builder
+            .add_emitter(from_params(&mut params().with("filename", Value::Image(0))).unwrap());
         let scene = builder.build().unwrap();
         assert_eq!(scene.environment_emitters, vec![e]);
         assert_eq!(scene.light_distributions.len(), 1);
@@ -616,7 +534,6 @@ mod tests {
         let pdf = emitter.pdf_direction(&ctx, Vec3::ZERO, Vec3::ZERO, Vec3::Z, s.wi);
         assert!((s.pdf - pdf).abs() < 1e-4 * pdf);
 
-        params.filename = None;
-        assert!(from_params(&mut params).is_err());
+        assert!(from_params(&mut params()).is_err());
     }
 }

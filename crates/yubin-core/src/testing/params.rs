@@ -25,6 +25,8 @@ pub enum Value {
     Texture(u32),
     /// An image file already in the scene's image table, by index.
     Image(u32),
+    /// A transform matrix.
+    Transform(glam::DMat4),
 }
 
 /// Named values and which of them were read.
@@ -150,7 +152,8 @@ impl Params for MapParams {
     fn transform(&mut self, name: &str) -> Result<Option<DMat4>, ParamError> {
         match self.take(name) {
             None => Ok(None),
-            Some(_) => Err(self.wrong(name, "nothing (transforms are not supported here)")),
+            Some(Value::Transform(m)) => Ok(Some(m)),
+            Some(_) => Err(self.wrong(name, "a transform")),
         }
     }
     fn color(&mut self, name: &str, _: ColorKind) -> Result<Option<Rgb>, ParamError> {

@@ -1,82 +1,23 @@
 //! The film: image size, crop window and reconstruction filter, and the
-//! per-tile accumulation buffers the renderer merges.
-//!
-//! `hdrfilm` parameters:
-//!
-//! | parameter                      | type    | default | meaning                      |
-//! |--------------------------------|---------|---------|------------------------------|
-//! | `width`, `height`              | integer | 768, 576| image size in pixels         |
-//! | `crop_offset_x`, `crop_offset_y` | integer | 0     | top-left of the crop window  |
-//! | `crop_width`, `crop_height`    | integer | full    | size of the crop window      |
-//! | (child) `rfilter`              | rfilter | gaussian| reconstruction filter        |
+//! per-tile accumulation buffers the renderer merges. Film plugins:
+//! `hdrfilm` (`hdrfilm.rs`).
 //!
 //! Tiles never share memory: each accumulates Σ w·value and Σ w into its
 //! own buffer, padded by the filter radius, and the renderer adds the
 //! buffers into the image in tile order, so the result is the same
 //! whatever the thread count.
 
+mod hdrfilm;
+
 use crate::filter::Filter;
-use crate::params::{plugin_of, Family, ParamError, Params};
+use crate::params::{plugin_of, ParamError, Params};
 use glam::Vec2;
 
 /// Builds a film plugin from its parameters.
 pub type FilmFromParams = fn(&mut dyn Params) -> Result<Film, ParamError>;
 
 /// Every film plugin: its scene type string and constructor.
-pub const PLUGINS: &[(&str, FilmFromParams)] = &[("hdrfilm", hdrfilm_from_params)];
-
-/// The output formats Mitsuba's `hdrfilm` accepts (yubin writes RGB).
-const PIXEL_FORMATS: &[&str] = &["rgb", "rgba", "luminance", "luminance_alpha", "xyz", "xyza"];
-const COMPONENT_FORMATS: &[&str] = &["float16", "float32", "uint32"];
-
-/// Builds an `hdrfilm`.
-fn hdrfilm_from_params(p: &mut dyn Params) -> Result<Film, ParamError> {
-    let width = p.positive_integer_or("width", 768)?;
-    let height = p.positive_integer_or("height", 576)?;
-    let ox = p.integer_or("crop_offset_x", 0)?.max(0) as u32;
-    let oy = p.integer_or("crop_offset_y", 0)?.max(0) as u32;
-    let cw = p.positive_integer_or("crop_width", (width.saturating_sub(ox)).max(1) as i64)?;
-    let ch = p.positive_integer_or("crop_height", (height.saturating_sub(oy)).max(1) as i64)?;
-    if ox + cw > width || oy + ch > height {
-        return Err(p.error(&format!(
-            "the crop window {cw}x{ch}+{ox}+{oy} does not fit in the {width}x{height} film"
-        )));
-    }
-    for (name, allowed) in [
-        ("pixel_format", PIXEL_FORMATS),
-        ("component_format", COMPONENT_FORMATS),
-    ] {
-        if let Some(v) = p.string(name)? {
-            if !allowed.contains(&v.as_str()) {
-                return Err(p.param_error(
-                    name,
-                    &format!("must be one of {}, not \"{v}\"", allowed.join(", ")),
-                ));
-            }
-        }
-    }
-    if p.boolean("sample_border")? == Some(true) {
-        p.warn(
-            Some("sample_border"),
-            "sample_border is not supported; edge pixels see only samples from inside the film",
-        );
-    }
-    p.warn_ignored(
-        &["file_format", "banner", "high_quality_edges", "attach_log"],
-        "a parameter of older Mitsuba versions; the output file is chosen with -o",
-    );
-    let filter = match p.child(Family::Rfilter)? {
-        Some(mut f) => Filter::from_params(f.as_mut())?,
-        None => Filter::default(),
-    };
-    Ok(Film {
-        width,
-        height,
-        crop_offset: [ox, oy],
-        crop_size: [cw, ch],
-        filter,
-    })
-}
+pub const PLUGINS: &[(&str, FilmFromParams)] = &[("hdrfilm", hdrfilm::from_params)];
 
 /// Film geometry and filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
