@@ -144,6 +144,12 @@ pub trait Params {
     /// Loads the image file named by string parameter `name` into the
     /// scene's image table (each file once) and returns its index.
     fn image(&mut self, name: &str) -> Result<Option<u32>, ParamError>;
+    /// The triangle mesh in the file a mesh plugin (`obj`, `ply`,
+    /// `serialized`) names: the front end reads `filename` and the
+    /// format's own parameters (`flip_tex_coords`, `shape_index`).
+    fn mesh_file(&mut self) -> Result<crate::shape::MeshData, ParamError> {
+        Err(self.error("this front end reads no mesh files"))
+    }
     /// The index of mesh attribute `attribute` (`vertex_color`, …) in the
     /// scene's attribute-name table, added if new. A front end without a
     /// scene has none.

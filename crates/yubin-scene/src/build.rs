@@ -20,7 +20,7 @@ use crate::error::{Location, SceneError};
 use crate::image_io::read_texture;
 use crate::mesh::{obj::load_obj, ply::load_ply, serialized::load_serialized, MeshData};
 use crate::params::{to_param, ObjParams};
-use glam::{DMat4, Vec3};
+use glam::DMat4;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
@@ -29,9 +29,7 @@ use yubin_core::camera::Sensor;
 use yubin_core::integrator::{Integrator, PathIntegrator};
 use yubin_core::math::Transform;
 use yubin_core::params::{ColorKind, ParamError, Params};
-use yubin_core::shape::{
-    cube::cube_mesh_with, Cylinder, Disk, MeshShape, Rectangle, Shape, Sphere, TriangleMesh,
-};
+use yubin_core::shape::{BuiltShape, MeshShape, Shape, TriangleMesh};
 use yubin_core::spectrum::Rgb;
 use yubin_core::{Scene, SceneBuilder};
 
@@ -175,11 +173,6 @@ fn transform_of(obj: &Object, name: &str) -> Result<Transform, SceneError> {
             format!("\"{name}\" of {} is not invertible", obj.describe()),
         )
     })
-}
-
-/// True for positive numbers, false for NaN.
-fn is_positive(v: f32) -> bool {
-    v > 0.0
 }
 
 impl Builder<'_> {
@@ -372,92 +365,14 @@ impl Builder<'_> {
             }
             _ => {}
         }
-        let flip = obj.boolean_or("flip_normals", false)?;
-        let to_world = transform_of(obj, "to_world")?;
         let bsdf = self.shape_bsdf(obj)?;
-        let shape = match kind {
-            "obj" | "ply" | "serialized" => {
-                let name = obj
-                    .string("filename")?
-                    .ok_or_else(|| obj.error(format!("{} needs a \"filename\"", obj.describe())))?;
-                let path = self.desc.resolve_file(name, obj.loc_of("filename"))?;
-                let face_normals = obj.boolean_or("face_normals", false)?;
-                let data = match kind {
-                    "obj" => load_obj(&path, obj.boolean_or("flip_tex_coords", true)?)?,
-                    "ply" => load_ply(&path)?,
-                    _ => {
-                        let index = obj.integer_or("shape_index", 0)?;
-                        let index = usize::try_from(index).map_err(|_| {
-                            obj.param_error("shape_index", format!("must be 0 or more, not {index}"))
-                        })?;
-                        load_serialized(&path, index)?
-                    }
-                };
-                self.mesh_shape(obj, data, face_normals, flip, &to_world, bsdf)?
-            }
-            "cube" => {
-                let mut mesh = cube_mesh_with(flip);
-                mesh.transform(&to_world);
+        let shape = match yubin_core::shape::from_params(&mut ObjParams { obj, b: self })? {
+            BuiltShape::Analytic(shape) => shape,
+            BuiltShape::Mesh(mut mesh) => {
                 self.prepare_tangents(obj, bsdf, &mut mesh)?;
                 Shape::Mesh(MeshShape {
                     mesh: self.sb.add_mesh(mesh),
                 })
-            }
-            "sphere" => {
-                let center = obj.point_or("center", Vec3::ZERO)?;
-                let radius = obj.float_or("radius", 1.0)?;
-                let scales = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| to_world.vector(a).length());
-                let scale = scales[0];
-                if (scales[1] - scale).abs() > 1e-4 * scale
-                    || (scales[2] - scale).abs() > 1e-4 * scale
-                {
-                    self.warnings.push(format!("{}: sphere: to_world has a non-uniform scale {scales:?}; using {scale} for the radius", obj.loc));
-                }
-                let m3 = to_world.m.matrix3;
-                let rotation = glam::Mat3::from_cols(
-                    m3.x_axis.normalize().into(),
-                    m3.y_axis.normalize().into(),
-                    m3.z_axis.normalize().into(),
-                );
-                if !is_positive(radius) {
-                    return Err(
-                        obj.param_error("radius", format!("must be positive, not {radius}"))
-                    );
-                }
-                Shape::Sphere(Sphere {
-                    center: to_world.point(center),
-                    radius: radius * scale,
-                    rotation,
-                    flip_normals: flip,
-                })
-            }
-            "rectangle" => Shape::Rectangle(Rectangle {
-                to_world,
-                flip_normals: flip,
-            }),
-            "disk" => Shape::Disk(Disk {
-                to_world,
-                flip_normals: flip,
-            }),
-            "cylinder" => {
-                let p0 = obj.point_or("p0", Vec3::ZERO)?;
-                let p1 = obj.point_or("p1", Vec3::Z)?;
-                let radius = obj.float_or("radius", 1.0)?;
-                if !is_positive(radius) || p0 == p1 {
-                    return Err(obj.error("a cylinder needs a positive radius and p0 != p1"));
-                }
-                let local = Transform::new(Cylinder::object_to_world(p0, p1, radius))
-                    .ok_or_else(|| obj.error("degenerate cylinder"))?;
-                Shape::Cylinder(Cylinder {
-                    to_world: to_world.after(&local),
-                    flip_normals: flip,
-                })
-            }
-            _ => {
-                return Err(unknown_type(
-                    obj,
-                    "obj, ply, serialized, cube, sphere, rectangle, disk, cylinder, shapegroup, instance",
-                ))
             }
         };
         if let Some(b) = bsdf {
@@ -470,30 +385,24 @@ impl Builder<'_> {
         Ok(())
     }
 
-    fn mesh_shape(
-        &mut self,
-        obj: &Object,
-        data: MeshData,
-        face_normals: bool,
-        flip: bool,
-        to_world: &Transform,
-        bsdf: Option<u32>,
-    ) -> Result<Shape, SceneError> {
-        let mut mesh = TriangleMesh::new(
-            data.positions,
-            data.normals.unwrap_or_default(),
-            data.uvs.unwrap_or_default(),
-            data.indices,
-            face_normals,
-            flip,
-        )
-        .and_then(|m| m.with_attributes(data.attributes))
-        .map_err(|e| obj.error(format!("{}: {e}", obj.describe())))?;
-        mesh.transform(to_world);
-        self.prepare_tangents(obj, bsdf, &mut mesh)?;
-        Ok(Shape::Mesh(MeshShape {
-            mesh: self.sb.add_mesh(mesh),
-        }))
+    /// The mesh in the file `obj` (an `obj`, `ply` or `serialized` shape)
+    /// names, with the format's own parameters.
+    pub(crate) fn mesh_file(&self, obj: &Object) -> Result<MeshData, SceneError> {
+        let name = obj
+            .string("filename")?
+            .ok_or_else(|| obj.error("needs a \"filename\""))?;
+        let path = self.desc.resolve_file(name, obj.loc_of("filename"))?;
+        match obj.plugin_type.as_str() {
+            "obj" => load_obj(&path, obj.boolean_or("flip_tex_coords", true)?),
+            "ply" => load_ply(&path),
+            _ => {
+                let index = obj.integer_or("shape_index", 0)?;
+                let index = usize::try_from(index).map_err(|_| {
+                    obj.param_error("shape_index", format!("must be 0 or more, not {index}"))
+                })?;
+                load_serialized(&path, index)
+            }
+        }
     }
 
     /// Computes the mesh's MikkTSpace tangents when its BSDF reads a

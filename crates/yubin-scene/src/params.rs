@@ -188,6 +188,10 @@ impl Params for ObjParams<'_, '_, '_> {
         Ok(self.b.attribute_index(attribute))
     }
 
+    fn mesh_file(&mut self) -> Result<yubin_core::shape::MeshData, ParamError> {
+        self.b.mesh_file(self.obj).map_err(to_param)
+    }
+
     fn mark_ignored(&mut self, name: &str) {
         self.obj.mark_ignored(name);
     }

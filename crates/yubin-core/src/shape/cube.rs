@@ -13,12 +13,26 @@
 //! Each face's uv spans [0, 1]².
 
 use super::TriangleMesh;
+use crate::params::{ParamError, Params};
 use glam::{Vec2, Vec3};
 
 /// The unit cube mesh in object space (call [`TriangleMesh::transform`]
 /// to place it).
 pub fn cube_mesh() -> TriangleMesh {
     cube_mesh_with(false)
+}
+
+/// The `cube` plugin.
+#[derive(Debug)]
+pub struct Cube;
+
+impl Cube {
+    /// Builds the cube's mesh from its scene parameters.
+    pub fn from_params(p: &mut dyn Params) -> Result<TriangleMesh, ParamError> {
+        let mut mesh = cube_mesh_with(p.boolean_or("flip_normals", false)?);
+        mesh.transform(&p.transform_or_identity("to_world")?);
+        Ok(mesh)
+    }
 }
 
 /// The cube, optionally with flipped normals.

@@ -20,6 +20,7 @@ use super::{
 };
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
+use crate::params::{ParamError, Params};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -33,6 +34,25 @@ pub struct Cylinder {
 }
 
 impl Cylinder {
+    /// Builds the cylinder from its scene parameters: the axis from `p0`
+    /// to `p1` and the `radius`, then `to_world`.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let flip_normals = p.boolean_or("flip_normals", false)?;
+        let to_world = p.transform_or_identity("to_world")?;
+        let p0 = p.point("p0")?.unwrap_or(Vec3::ZERO);
+        let p1 = p.point("p1")?.unwrap_or(Vec3::Z);
+        let radius = p.float_or("radius", 1.0)?;
+        if radius.is_nan() || radius <= 0.0 || p0 == p1 {
+            return Err(p.error("a cylinder needs a positive radius and p0 != p1"));
+        }
+        let local = Transform::new(Self::object_to_world(p0, p1, radius))
+            .ok_or_else(|| p.error("degenerate cylinder"))?;
+        Ok(Self {
+            to_world: to_world.after(&local),
+            flip_normals,
+        })
+    }
+
     /// The object-to-world map of Mitsuba's (p0, p1, radius) cylinder.
     pub fn object_to_world(p0: Vec3, p1: Vec3, radius: f32) -> glam::Affine3A {
         let axis = p1 - p0;

@@ -19,6 +19,7 @@ use super::{
 };
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
+use crate::params::{ParamError, Params};
 use crate::sampling::square_to_uniform_disk_concentric;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -30,6 +31,16 @@ pub struct Disk {
     pub to_world: Transform,
     /// Face −z.
     pub flip_normals: bool,
+}
+
+impl Disk {
+    /// Builds the disk from its scene parameters.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        Ok(Self {
+            flip_normals: p.boolean_or("flip_normals", false)?,
+            to_world: p.transform_or_identity("to_world")?,
+        })
+    }
 }
 
 impl Disk {

@@ -49,6 +49,7 @@
 use super::{PositionSample, PrimHit, ShapeModel, WatertightRay};
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Frame, Ray};
+use crate::params::{ParamError, Params};
 use crate::sampling::{square_to_uniform_triangle, AliasTable};
 use crate::texture::{NamedAttribute, NO_ATTRIBUTES};
 use glam::{Vec2, Vec3, Vec4};
@@ -77,6 +78,48 @@ pub struct TriangleMesh {
     /// ran.
     pub tangents: Vec<[Vec4; 3]>,
     area: Option<AliasTable>,
+}
+
+/// A triangle mesh as read from a file, before any transform is applied.
+/// Indexed: `normals` and `uvs`, when present, have one entry per position.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshData {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Per-vertex shading normals, if the file has them.
+    pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex texture coordinates, if the file has them.
+    pub uvs: Option<Vec<Vec2>>,
+    /// Triangles as three vertex indices each; polygons are fan-triangulated.
+    pub indices: Vec<[u32; 3]>,
+    /// Named attributes (PLY colours and the like): `vertex_…` ones follow
+    /// `positions`, `face_…` ones `indices` (a polygon's value repeated for
+    /// each of its triangles).
+    pub attributes: Vec<NamedAttribute>,
+}
+
+impl TriangleMesh {
+    /// Builds a mesh plugin (`obj`, `ply`, `serialized`): the front end
+    /// reads the file (`Params::mesh_file`), this applies the parameters
+    /// every mesh has.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let data = p.mesh_file()?;
+        let face_normals = p.boolean_or("face_normals", false)?;
+        let flip = p.boolean_or("flip_normals", false)?;
+        let to_world = p.transform_or_identity("to_world")?;
+        let mut mesh = TriangleMesh::new(
+            data.positions,
+            data.normals.unwrap_or_default(),
+            data.uvs.unwrap_or_default(),
+            data.indices,
+            face_normals,
+            flip,
+        )
+        .and_then(|m| m.with_attributes(data.attributes))
+        .map_err(|e| p.error(&e.to_string()))?;
+        mesh.transform(&to_world);
+        Ok(mesh)
+    }
 }
 
 /// Errors in mesh data given to [`TriangleMesh::new`].

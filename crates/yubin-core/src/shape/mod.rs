@@ -20,14 +20,68 @@ mod triangle;
 
 pub use cylinder::Cylinder;
 pub use disk::Disk;
-pub use mesh::{MeshShape, TriangleMesh};
+pub use mesh::{MeshData, MeshShape, TriangleMesh};
 pub use rectangle::Rectangle;
 pub use sphere::Sphere;
 pub use triangle::{TrianglePackets, WatertightRay, PACKET};
 
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
+use crate::params::{plugin_of, ParamError, Params};
 use glam::{Vec2, Vec3};
+
+/// What a shape plugin builds: an analytic shape, or a triangle mesh for
+/// the scene to add to its meshes (and refer to by index).
+#[derive(Debug)]
+pub enum BuiltShape {
+    /// A shape that needs nothing more.
+    Analytic(Shape),
+    /// A mesh, in world (or shape-group) space.
+    Mesh(TriangleMesh),
+}
+
+/// Builds a shape plugin from its parameters.
+pub type ShapeFromParams = fn(&mut dyn Params) -> Result<BuiltShape, ParamError>;
+
+/// Every shape plugin: its scene type string and constructor. (`shapegroup`
+/// and `instance` arrange other shapes and are the front end's.)
+pub const PLUGINS: &[(&str, ShapeFromParams)] = &[
+    ("obj", |p| {
+        Ok(BuiltShape::Mesh(TriangleMesh::from_params(p)?))
+    }),
+    ("ply", |p| {
+        Ok(BuiltShape::Mesh(TriangleMesh::from_params(p)?))
+    }),
+    ("serialized", |p| {
+        Ok(BuiltShape::Mesh(TriangleMesh::from_params(p)?))
+    }),
+    ("cube", |p| {
+        Ok(BuiltShape::Mesh(cube::Cube::from_params(p)?))
+    }),
+    ("sphere", |p| {
+        Ok(BuiltShape::Analytic(Shape::Sphere(Sphere::from_params(p)?)))
+    }),
+    ("rectangle", |p| {
+        Ok(BuiltShape::Analytic(Shape::Rectangle(
+            Rectangle::from_params(p)?,
+        )))
+    }),
+    ("disk", |p| {
+        Ok(BuiltShape::Analytic(Shape::Disk(Disk::from_params(p)?)))
+    }),
+    ("cylinder", |p| {
+        Ok(BuiltShape::Analytic(Shape::Cylinder(
+            Cylinder::from_params(p)?,
+        )))
+    }),
+];
+
+/// Builds the shape `p` describes, by its plugin type.
+pub fn from_params(p: &mut dyn Params) -> Result<BuiltShape, ParamError> {
+    let known =
+        "obj, ply, serialized, cube, sphere, rectangle, disk, cylinder, shapegroup, instance";
+    plugin_of(p, "shape", PLUGINS, Some(known))?(p)
+}
 
 /// The result of intersecting one primitive: the distance and whatever
 /// the shape needs to finish the interaction (barycentrics, local uv).

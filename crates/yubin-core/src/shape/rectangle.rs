@@ -19,6 +19,7 @@ use super::{
 };
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
+use crate::params::{ParamError, Params};
 use glam::{Vec2, Vec3};
 
 /// A parallelogram: the transformed unit square.
@@ -28,6 +29,16 @@ pub struct Rectangle {
     pub to_world: Transform,
     /// Face −z.
     pub flip_normals: bool,
+}
+
+impl Rectangle {
+    /// Builds the rectangle from its scene parameters.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        Ok(Self {
+            flip_normals: p.boolean_or("flip_normals", false)?,
+            to_world: p.transform_or_identity("to_world")?,
+        })
+    }
 }
 
 impl Rectangle {

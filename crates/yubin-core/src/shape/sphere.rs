@@ -23,6 +23,7 @@ use super::{
 };
 use crate::interaction::SurfaceInteraction;
 use crate::math::{coordinate_system, Bounds3, Ray};
+use crate::params::{ParamError, Params};
 use crate::sampling::{square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf};
 use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
@@ -38,6 +39,42 @@ pub struct Sphere {
     pub rotation: Mat3,
     /// Normals point inward.
     pub flip_normals: bool,
+}
+
+impl Sphere {
+    /// Builds the sphere from its scene parameters: `to_world` moves the
+    /// centre and scales the radius (its rotation orients the uv).
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let flip_normals = p.boolean_or("flip_normals", false)?;
+        let to_world = p.transform_or_identity("to_world")?;
+        let center = p.point("center")?.unwrap_or(Vec3::ZERO);
+        let radius = p.float_or("radius", 1.0)?;
+        let scales = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| to_world.vector(a).length());
+        let scale = scales[0];
+        if (scales[1] - scale).abs() > 1e-4 * scale || (scales[2] - scale).abs() > 1e-4 * scale {
+            p.warn(
+                None,
+                &format!(
+                    "sphere: to_world has a non-uniform scale {scales:?}; using {scale} for the radius"
+                ),
+            );
+        }
+        let m3 = to_world.m.matrix3;
+        let rotation = Mat3::from_cols(
+            m3.x_axis.normalize().into(),
+            m3.y_axis.normalize().into(),
+            m3.z_axis.normalize().into(),
+        );
+        if radius.is_nan() || radius <= 0.0 {
+            return Err(p.param_error("radius", &format!("must be positive, not {radius}")));
+        }
+        Ok(Self {
+            center: to_world.point(center),
+            radius: radius * scale,
+            rotation,
+            flip_normals,
+        })
+    }
 }
 
 impl Sphere {
