@@ -12,12 +12,11 @@ use crate::accel::{Bvh, PrimCost};
 use crate::bsdf::{Bsdf, BsdfModel, Diffuse};
 use crate::camera::{Camera, FovAxis, Perspective};
 use crate::film::Film;
-use crate::filter::Filter;
 use crate::interaction::SurfaceInteraction;
 use crate::light::{AreaLight, Emitter, EmitterContext};
 use crate::material::Materials;
 use crate::math::{Bounds3, Frame, Ray, Transform};
-use crate::sampler::{Independent, Sampler};
+use crate::sampler::Sampler;
 use crate::sampling::Distribution2D;
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
 use crate::texture::{AttributeSlot, TexImage, Texture};
@@ -604,8 +603,8 @@ impl SceneBuilder {
             groups: vec![Vec::new()],
             instances: Vec::new(),
             camera: None,
-            film: Film::new(768, 576, Filter::default()),
-            sampler: Sampler::Independent(Independent { sample_count: 4 }),
+            film: Film::default(),
+            sampler: Sampler::default(),
         }
     }
 

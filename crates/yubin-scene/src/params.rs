@@ -46,8 +46,7 @@ impl ObjParams<'_, '_, '_> {
         Ok(rgb)
     }
 
-    /// A nested object called `name` that is not of one of `allowed`
-    /// categories is an error; returns the child when it is.
+    /// The nested object called `name`, if there is one.
     fn named_child(&self, name: &str) -> Option<std::rc::Rc<Object>> {
         self.obj.child(name).map(|c| c.object.clone())
     }

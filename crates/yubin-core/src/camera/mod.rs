@@ -6,10 +6,9 @@ mod perspective;
 pub use perspective::{FovAxis, Perspective};
 
 use crate::film::Film;
-use crate::filter::Filter;
 use crate::math::Ray;
 use crate::params::{plugin_of, Family, ParamError, Params};
-use crate::sampler::{Independent, Sampler};
+use crate::sampler::Sampler;
 use glam::Vec2;
 
 /// Builds a camera plugin from its parameters and its film's size.
@@ -42,11 +41,11 @@ impl Sensor {
         let build = plugin_of(p, "sensor", PLUGINS, None)?;
         let film = match p.child(Family::Film)? {
             Some(mut f) => Film::from_params(f.as_mut())?,
-            None => Film::new(768, 576, Filter::default()),
+            None => Film::default(),
         };
         let (sampler, seed) = match p.child(Family::Sampler)? {
             Some(mut s) => Sampler::from_params(s.as_mut())?,
-            None => (Sampler::Independent(Independent { sample_count: 4 }), 0),
+            None => (Sampler::default(), 0),
         };
         let camera = build(p, [film.width, film.height])?;
         Ok(Self {

@@ -34,6 +34,13 @@ pub struct Film {
     pub filter: Filter,
 }
 
+impl Default for Film {
+    /// Mitsuba's default film: 768×576, Gaussian filter.
+    fn default() -> Self {
+        Film::new(768, 576, Filter::default())
+    }
+}
+
 impl Film {
     /// Builds the film `p` describes, by its plugin type.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {

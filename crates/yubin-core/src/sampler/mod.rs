@@ -54,6 +54,13 @@ pub enum Sampler {
     Sobol(Sobol),
 }
 
+impl Default for Sampler {
+    /// Mitsuba's default sampler: 4 independent samples per pixel.
+    fn default() -> Self {
+        Sampler::Independent(Independent { sample_count: 4 })
+    }
+}
+
 impl Sampler {
     /// Builds the sampler `p` describes; returns it with its `seed`.
     pub fn from_params(p: &mut dyn Params) -> Result<(Self, u32), ParamError> {

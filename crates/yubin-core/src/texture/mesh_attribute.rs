@@ -26,7 +26,7 @@
 //! the texture contract instead). The derivative is zero, and the mean is
 //! ½: Mitsuba has no mean for this texture and refuses `plastic` with it.
 //!
-//! # Where the values live
+//! **Where the values live.**
 //!
 //! A texture is shared by every shape whose BSDF uses it, and each mesh has
 //! its own attributes, so the texture is resolved per hit:
@@ -50,7 +50,7 @@
 //! time: `Invalid attribute requested`); at evaluation a missing attribute
 //! reads as zero.
 //!
-//! # PLY properties (Mitsuba 3.9.1, checked)
+//! **PLY properties** (Mitsuba 3.9.1, checked).
 //!
 //! Every vertex or face property other than positions, normals, texture
 //! coordinates and indices becomes an attribute: `r g b [a]` and
