@@ -40,7 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     sb.add_shape(
         Shape::Sphere(Sphere::new(Vec3::new(3.0, 4.0, -2.0), 0.5, false)),
         None,
-        Some(Rgb::splat(20.0)),
+        Some(Rgb::splat(20.0).into()),
     )?;
     sb.add_emitter(Emitter::Point(PointLight {
         position: Vec3::new(-3.0, 5.0, -3.0),

@@ -27,6 +27,16 @@ pub struct Materials {
 }
 
 impl Materials {
+    /// No tables: the materials of an empty scene, for contexts that
+    /// need a `'static` reference.
+    pub const EMPTY: Materials = Materials {
+        bsdfs: Vec::new(),
+        textures: Vec::new(),
+        images: Vec::new(),
+        rough_transmittance: Vec::new(),
+        attributes: MeshAttributes::EMPTY,
+    };
+
     /// Tables holding only these BSDFs (for tests and simple scenes).
     pub fn with_bsdfs(bsdfs: Vec<Bsdf>) -> Self {
         let mut m = Self::default();

@@ -19,8 +19,8 @@ use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::Sampler;
 use crate::sampling::Distribution2D;
 use crate::shape::{PrimHit, Shape, ShapeModel, TriangleMesh, TrianglePackets, WatertightRay};
-use crate::texture::{AttributeSlot, TexImage, Texture};
-use crate::Rgb;
+use crate::texture::{AttributeSlot, Tex, TexImage, Texture};
+
 use rayon::prelude::*;
 
 // A leaf is tested as one triangle packet.
@@ -200,6 +200,7 @@ impl Scene {
             shapes: &self.shapes,
             meshes: &self.meshes,
             images: &self.materials.images,
+            materials: &self.materials,
             distributions: &self.light_distributions,
         }
     }
@@ -682,7 +683,7 @@ impl SceneBuilder {
         &mut self,
         shape: Shape,
         bsdf: Option<u32>,
-        radiance: Option<Rgb>,
+        radiance: Option<Tex>,
     ) -> Result<u32, BuildError> {
         self.add_shape_to(0, shape, bsdf, radiance)
     }
@@ -693,7 +694,7 @@ impl SceneBuilder {
         group: u32,
         shape: Shape,
         bsdf: Option<u32>,
-        radiance: Option<Rgb>,
+        radiance: Option<Tex>,
     ) -> Result<u32, BuildError> {
         if group as usize >= self.groups.len() {
             return Err(BuildError::BadIndex {

@@ -89,7 +89,7 @@ fn render_mean(sheet: Sheet, light: Light, max_depth: i32, spp: u32) -> f32 {
             b.add_shape(
                 Shape::Sphere(Sphere::new(light_pos, 0.3, false)),
                 None,
-                Some(Rgb::splat(10.0)),
+                Some(Rgb::splat(10.0).into()),
             )
             .unwrap();
         }

@@ -31,6 +31,7 @@ use yubin_core::math::Transform;
 use yubin_core::params::{ColorKind, ParamError, Params};
 use yubin_core::shape::{BuiltShape, MeshShape, Shape, TriangleMesh};
 use yubin_core::spectrum::Rgb;
+use yubin_core::texture::Tex;
 use yubin_core::{Scene, SceneBuilder};
 
 /// A scene ready to render, with what the file said about how.
@@ -313,7 +314,7 @@ impl Builder<'_> {
         }
     }
 
-    fn area_radiance(&mut self, obj: &Object) -> Result<Option<Rgb>, SceneError> {
+    fn area_radiance(&mut self, obj: &Object) -> Result<Option<Tex>, SceneError> {
         let Some(c) = obj.single_child(Category::Emitter)? else {
             return Ok(None);
         };
@@ -327,8 +328,19 @@ impl Builder<'_> {
         let e = e.clone();
         let mut p = ObjParams { obj: &e, b: self };
         let radiance = p
-            .color("radiance", ColorKind::Illuminant)?
+            .texture("radiance", ColorKind::Illuminant)?
             .ok_or_else(|| p.error("needs the parameter \"radiance\""))?;
+        let reads_attributes = match radiance {
+            Tex::Texture(t) => self.texture_reads.get(&t).is_some_and(|r| !r.is_empty()),
+            Tex::Const(_) => false,
+        };
+        if reads_attributes {
+            return Err(SceneError::at(
+                e.loc_of("radiance"),
+                "an area emitter's radiance cannot be a mesh_attribute texture \
+                 (light samples carry no triangle attributes)",
+            ));
+        }
         Ok(Some(radiance))
     }
 

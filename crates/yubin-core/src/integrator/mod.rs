@@ -122,7 +122,7 @@ pub(crate) fn surface_emission(
     let Some(emitter) = scene.emitter_of(si.shape) else {
         return Rgb::ZERO;
     };
-    let le = emitter.surface_radiance(si.sh_frame.n, si.wo);
+    let le = emitter.surface_radiance(&scene.materials, si);
     match bsdf_pdf {
         Some(pdf) if le != Rgb::ZERO => {
             let light_pdf = scene.emitter_pick_pdf()

@@ -26,6 +26,7 @@ pub use directional::DirectionalLight;
 pub use envmap::EnvMapLight;
 pub use point::PointLight;
 
+use crate::interaction::SurfaceInteraction;
 use crate::params::{ParamError, Params};
 use crate::sampling::Distribution2D;
 use crate::shape::{Shape, TriangleMesh};
@@ -43,6 +44,8 @@ pub struct EmitterContext<'a> {
     pub meshes: &'a [TriangleMesh],
     /// The scene's images ([`crate::material::Materials::images`]).
     pub images: &'a [TexImage],
+    /// The scene's materials, for textured emission.
+    pub materials: &'a crate::material::Materials,
     /// Sampling distributions of emitters (`Scene::light_distributions`).
     pub distributions: &'a [Distribution2D],
 }
@@ -53,6 +56,7 @@ impl EmitterContext<'static> {
         shapes: &[],
         meshes: &[],
         images: &[],
+        materials: &crate::material::Materials::EMPTY,
         distributions: &[],
     };
 }
@@ -170,12 +174,12 @@ impl EmitterModel for Emitter {
 }
 
 impl Emitter {
-    /// Radiance leaving an emitting surface towards `wo` (world), where
-    /// `n` is the surface's shading normal. Zero for non-surface lights.
+    /// Radiance leaving the emitting surface hit at `si` towards `si.wo`.
+    /// Zero for non-surface lights.
     #[inline]
-    pub fn surface_radiance(&self, n: Vec3, wo: Vec3) -> Rgb {
+    pub fn surface_radiance(&self, m: &crate::material::Materials, si: &SurfaceInteraction) -> Rgb {
         match self {
-            Emitter::Area(a) if n.dot(wo) > 0.0 => a.radiance,
+            Emitter::Area(a) if si.sh_frame.n.dot(si.wo) > 0.0 => a.radiance.eval(m, si),
             _ => Rgb::ZERO,
         }
     }

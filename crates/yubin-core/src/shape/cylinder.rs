@@ -158,6 +158,7 @@ impl ShapeModel for Cylinder {
             p: self.to_world.point(Vec3::new(cos_p, sin_p, u.x)),
             n,
             pdf: 1.0 / self.surface_area(meshes),
+            uv: Vec2::new(azimuth(cos_p, sin_p) / (2.0 * PI), u.x),
         }
     }
 }

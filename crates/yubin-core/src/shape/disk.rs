@@ -103,6 +103,7 @@ impl ShapeModel for Disk {
             p: self.to_world.point(local.extend(0.0)),
             n: self.normal(),
             pdf: 1.0 / self.surface_area(meshes),
+            uv: Vec2::new(local.length(), azimuth(local.x, local.y) / (2.0 * PI)),
         }
     }
 }

@@ -507,15 +507,17 @@ impl ShapeModel for MeshShape {
                 p: Vec3::ZERO,
                 n: Vec3::Z,
                 pdf: 0.0,
+                uv: Vec2::ZERO,
             };
         };
         let (tri, u_reused) = table.sample(u.x);
         let b = square_to_uniform_triangle(Vec2::new(u_reused, u.y));
-        let (p, _, ns, ..) = mesh.surface_at(tri, b);
+        let (p, _, ns, uv, ..) = mesh.surface_at(tri, b);
         PositionSample {
             p,
             n: ns,
             pdf: 1.0 / table.total(),
+            uv,
         }
     }
 }

@@ -102,6 +102,8 @@ pub struct PositionSample {
     pub n: Vec3,
     /// Density per unit area.
     pub pdf: f32,
+    /// Surface coordinates there, as a hit at `p` would have them.
+    pub uv: Vec2,
 }
 
 /// A point sampled on a shape as seen from a reference point, with the
@@ -114,6 +116,8 @@ pub struct ShapeDirectionSample {
     pub n: Vec3,
     /// Density per solid angle (0 when the sample is unusable).
     pub pdf: f32,
+    /// Surface coordinates there, as a hit at `p` would have them.
+    pub uv: Vec2,
 }
 
 /// The contract every shape variant implements.
@@ -151,6 +155,7 @@ pub trait ShapeModel {
             p: ps.p,
             n: ps.n,
             pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
+            uv: ps.uv,
         }
     }
 
@@ -349,6 +354,38 @@ pub(crate) mod tests {
             },
         )
         .unwrap();
+        check_sample_uv(shape, meshes, ref_p);
+    }
+
+    /// Sampled points carry the uv a hit at the same point gets (what a
+    /// textured emitter reads), up to the seam of periodic coordinates.
+    fn check_sample_uv(shape: &Shape, meshes: &[TriangleMesh], ref_p: Vec3) {
+        let mut rng = Pcg32::new(3, 5);
+        let mut compared = 0;
+        for _ in 0..500 {
+            let s = shape.sample_direction(meshes, ref_p, rng.next_2d());
+            if s.pdf <= 0.0 {
+                continue;
+            }
+            let Some(hit) = closest_hit(shape, meshes, &Ray::new(ref_p, (s.p - ref_p).normalize()))
+            else {
+                continue;
+            };
+            if (hit.p - s.p).length() > 1e-3 * (1.0 + s.p.length()) {
+                continue; // another part of the shape is in front
+            }
+            let d = hit.uv - s.uv;
+            let d = Vec2::new(d.x - d.x.round(), d.y);
+            assert!(
+                d.length() < 2e-3,
+                "sampled uv {} vs hit uv {} at {}",
+                s.uv,
+                hit.uv,
+                s.p
+            );
+            compared += 1;
+        }
+        assert!(compared > 100, "only {compared} samples could be compared");
     }
 
     /// Brute-force closest hit over all primitives of one shape.

@@ -89,6 +89,7 @@ impl ShapeModel for Rectangle {
             p: self.to_world.point(local.extend(0.0)),
             n: self.normal(),
             pdf: 1.0 / self.surface_area(meshes),
+            uv: u,
         }
     }
 }

@@ -97,6 +97,17 @@ impl Sphere {
     }
 }
 
+impl Sphere {
+    /// uv of the surface point in unit direction `outward` from the
+    /// centre, with its azimuth φ and polar angle θ in the sphere's frame.
+    fn uv_of(&self, outward: Vec3) -> (Vec2, f32, f32) {
+        let local = self.rotation.transpose() * outward;
+        let phi = azimuth(local.x, local.y);
+        let theta = local.z.clamp(-1.0, 1.0).acos();
+        (Vec2::new(phi / (2.0 * PI), theta / PI), phi, theta)
+    }
+}
+
 impl ShapeModel for Sphere {
     fn prim_count(&self, _: &[TriangleMesh]) -> u32 {
         1
@@ -147,10 +158,7 @@ impl ShapeModel for Sphere {
         let outward = (ray.at(hit.t) - self.center).normalize();
         // Re-project onto the surface to undo round-off in t.
         let p = self.center + outward * self.radius;
-        let local = self.rotation.transpose() * outward;
-        let phi = azimuth(local.x, local.y);
-        let theta = local.z.clamp(-1.0, 1.0).acos();
-        let uv = Vec2::new(phi / (2.0 * PI), theta / PI);
+        let (uv, phi, theta) = self.uv_of(outward);
         let r = self.radius;
         let (sin_t, cos_t) = theta.sin_cos();
         let (sin_p, cos_p) = phi.sin_cos();
@@ -177,6 +185,7 @@ impl ShapeModel for Sphere {
             p: self.center + d * self.radius,
             n: self.outward_to_normal(d),
             pdf: 1.0 / (4.0 * PI * self.radius * self.radius),
+            uv: self.uv_of(d).0,
         }
     }
 
@@ -195,6 +204,7 @@ impl ShapeModel for Sphere {
                 p: ps.p,
                 n: ps.n,
                 pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
+                uv: ps.uv,
             };
         }
         let dist = dist2.sqrt();
@@ -215,6 +225,7 @@ impl ShapeModel for Sphere {
             p: self.center + outward * self.radius,
             n: self.outward_to_normal(outward),
             pdf: uniform_cone_pdf(cos_max),
+            uv: self.uv_of(outward).0,
         }
     }
 

@@ -118,6 +118,14 @@ pub struct MeshAttributes {
 }
 
 impl MeshAttributes {
+    /// No attributes.
+    pub const EMPTY: MeshAttributes = MeshAttributes {
+        names: Vec::new(),
+        sets: Vec::new(),
+        slots: Vec::new(),
+        data: Vec::new(),
+    };
+
     /// The index of `name`, added if new.
     pub fn intern(&mut self, name: &str) -> u32 {
         match self.names.iter().position(|n| n == name) {

@@ -96,6 +96,12 @@ pub enum Tex {
     Texture(u32),
 }
 
+impl From<Rgb> for Tex {
+    fn from(c: Rgb) -> Self {
+        Tex::Const(c)
+    }
+}
+
 impl Tex {
     /// A constant grey value.
     pub fn value(v: f32) -> Self {
