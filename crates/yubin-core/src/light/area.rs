@@ -30,8 +30,8 @@
 
 use super::{EmitterContext, EmitterModel, EmitterSample};
 use crate::interaction::SurfaceInteraction;
-use crate::math::Frame;
-use crate::shape::ShapeModel;
+use crate::math::Ray;
+use crate::shape::{make_interaction, ShapeModel};
 use crate::texture::Tex;
 use glam::{Vec2, Vec3};
 
@@ -47,22 +47,8 @@ pub struct AreaLight {
 /// What a texture needs of a point light sampling picked: position,
 /// normal and uv (no triangle, so no mesh attributes).
 fn sampled_point(p: Vec3, n: Vec3, uv: Vec2) -> SurfaceInteraction {
-    SurfaceInteraction {
-        p,
-        t: 0.0,
-        n,
-        sh_frame: Frame::from_normal(n),
-        uv,
-        dpdu: Vec3::ZERO,
-        dpdv: Vec3::ZERO,
-        wo: n,
-        shape: 0,
-        prim: 0,
-        bary: Vec2::ZERO,
-        vertices: [0; 3],
-        attributes: crate::texture::NO_ATTRIBUTES,
-        tangent: glam::Vec4::ZERO,
-    }
+    // As if hit from straight in front, at distance 0.
+    make_interaction(&Ray::new(p + n, -n), 0.0, p, n, uv, Vec3::ZERO, Vec3::ZERO)
 }
 
 impl EmitterModel for AreaLight {
@@ -109,7 +95,7 @@ impl EmitterModel for AreaLight {
 mod tests {
     use super::*;
     use crate::light::Emitter;
-    use crate::math::{Ray, Transform};
+    use crate::math::Transform;
     use crate::shape::{Rectangle, Shape};
     use crate::testing::chi2::{chi2_directions, Chi2Config};
     use crate::Rgb;
