@@ -721,6 +721,11 @@ impl SceneBuilder {
                 })
             }
             Some(b) => b,
+            // Mitsuba's default: grey diffuse, black on emitters (a light
+            // without a BSDF reflects nothing).
+            None if radiance.is_some() => {
+                self.add_bsdf(Bsdf::Diffuse(Diffuse::new(crate::Rgb::ZERO)))
+            }
             None => self.add_bsdf(Bsdf::Diffuse(Diffuse::default())),
         };
         let id = self.shapes.len() as u32;
@@ -948,6 +953,39 @@ mod tests {
 
     fn t(m: Affine3A) -> Transform {
         Transform::new(m).unwrap()
+    }
+
+    /// Shapes without a BSDF get Mitsuba's default: grey diffuse, black on
+    /// emitters.
+    #[test]
+    fn default_bsdf_is_black_on_emitters() {
+        let mut b = SceneBuilder::new();
+        let sphere = || Shape::Sphere(Sphere::new(Vec3::ZERO, 1.0, false));
+        b.add_shape(sphere(), None, None).unwrap();
+        b.add_shape(sphere(), None, Some(crate::Rgb::ONE.into()))
+            .unwrap();
+        b.camera(crate::camera::Camera::Perspective(
+            crate::camera::Perspective::new(
+                Affine3A::IDENTITY,
+                45.0,
+                crate::camera::FovAxis::X,
+                4,
+                4,
+                0.01,
+                100.0,
+            ),
+        ));
+        let scene = b.build().unwrap();
+        let reflectance =
+            |shape: usize| match scene.materials.bsdfs[scene.shape_info[shape].bsdf as usize] {
+                Bsdf::Diffuse(d) => d.reflectance,
+                other => panic!("{other:?}"),
+            };
+        assert_eq!(
+            reflectance(0),
+            crate::texture::Tex::Const(crate::Rgb::splat(0.5))
+        );
+        assert_eq!(reflectance(1), crate::texture::Tex::Const(crate::Rgb::ZERO));
     }
 
     /// Every shape kind, in the world and in two instances of a group.

@@ -327,9 +327,7 @@ impl Builder<'_> {
         }
         let e = e.clone();
         let mut p = ObjParams { obj: &e, b: self };
-        let radiance = p
-            .texture("radiance", ColorKind::Illuminant)?
-            .ok_or_else(|| p.error("needs the parameter \"radiance\""))?;
+        let radiance = p.texture_or("radiance", ColorKind::Illuminant, Rgb::ONE)?;
         let reads_attributes = match radiance {
             Tex::Texture(t) => self.texture_reads.get(&t).is_some_and(|r| !r.is_empty()),
             Tex::Const(_) => false,

@@ -2,7 +2,7 @@
 //!
 //! | parameter  | type                     | default | meaning            |
 //! |------------|--------------------------|---------|--------------------|
-//! | `radiance` | rgb / spectrum / texture | —       | emitted radiance L |
+//! | `radiance` | rgb / spectrum / texture | 1       | emitted radiance L |
 //!
 //! ```xml
 //! <shape type="rectangle">
@@ -22,6 +22,9 @@
 //! as in Mitsuba 3 (not by the texture's brightness). `mesh_attribute`
 //! cannot drive a radiance (light samples carry no triangle attributes):
 //! that is a load error.
+//!
+//! A shape with an area emitter and no BSDF gets a black `diffuse`, as in
+//! Mitsuba 3 (other shapes without one get a grey `diffuse`).
 //!
 //! The front side is the one the shading normal points to (so
 //! `flip_normals` turns a light around). Sampling is delegated to the

@@ -375,7 +375,9 @@ pub(crate) mod tests {
                 continue; // another part of the shape is in front
             }
             let d = hit.uv - s.uv;
-            let d = Vec2::new(d.x - d.x.round(), d.y);
+            // Periodic coordinates wrap (u on spheres and cylinders, v on
+            // disks); no other coordinate can be off by a whole 1.
+            let d = d - d.round();
             assert!(
                 d.length() < 2e-3,
                 "sampled uv {} vs hit uv {} at {}",
