@@ -660,6 +660,7 @@ pub(crate) mod tests {
                 id,
                 lossless: false,
                 reciprocal: true,
+                energy_conserving: true,
             }
         };
         let mut v: Vec<Variant> = [

@@ -182,6 +182,7 @@ pub(crate) mod tests {
                 id: 2,
                 lossless: false,
                 reciprocal: true,
+                energy_conserving: true,
             },
             white,
         ]
