@@ -418,6 +418,26 @@ fn material_errors_name_the_line_and_the_problem() {
             &["nowhere.png", "searched"],
             "nowhere.png",
         ),
+        (
+            r#"<bsdf type="principled"><float name="metallic" value="1.5"/></bsdf>"#,
+            &["metallic", "[0, 1]", "1.5"],
+            "name=\"metallic\"",
+        ),
+        (
+            r#"<bsdf type="principled"><float name="eta" value="1.4"/><float name="specular" value="0.3"/></bsdf>"#,
+            &["\"eta\" or \"specular\", not both"],
+            "name=\"specular\"",
+        ),
+        (
+            r#"<bsdf type="principledthin"><float name="diff_trans" value="2.5"/></bsdf>"#,
+            &["diff_trans", "[0, 2]"],
+            "name=\"diff_trans\"",
+        ),
+        (
+            r#"<bsdf type="principledthin"><float name="eta" value="0"/></bsdf>"#,
+            &["eta", "positive"],
+            "name=\"eta\"",
+        ),
     ];
     for (i, (bsdf, needles, line_needle)) in cases.iter().enumerate() {
         let dir = TempDir::new(&format!("material_error_{i}"));

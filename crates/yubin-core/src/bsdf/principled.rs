@@ -339,11 +339,11 @@ impl BsdfModel for Principled {
             }
             (wi, BsdfFlags::GLOSSY_TRANSMISSION, eta_it)
         };
-        let pdf = self.pdf(m, ctx, si, wo, wi);
+        let pdf = self.pdf_at(&p, wo, wi);
         if !(pdf > 0.0) {
             return None;
         }
-        let value = self.eval(m, ctx, si, wo, wi);
+        let value = self.eval_at(&p, ctx, wo, wi);
         Some(BsdfSample {
             wi,
             pdf,
@@ -361,11 +361,30 @@ impl BsdfModel for Principled {
         wo: Vec3,
         wi: Vec3,
     ) -> Rgb {
+        self.eval_at(&self.at(m, si), ctx, wo, wi)
+    }
+
+    fn pdf(
+        &self,
+        m: &Materials,
+        _: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> f32 {
+        self.pdf_at(&self.at(m, si), wo, wi)
+    }
+}
+
+/// The three methods at an evaluated point (so that `sample` reads the
+/// textures once).
+impl Principled {
+    #[inline]
+    fn eval_at(&self, p: &Point, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
         let (co, ci) = (wo.z, wi.z);
         if co == 0.0 || co * ci == 0.0 {
             return Rgb::ZERO;
         }
-        let p = self.at(m, si);
         let front = co > 0.0;
         let reflect = co * ci > 0.0;
         let (h, eta_path) = self.half_vector(wo, wi);
@@ -397,19 +416,12 @@ impl BsdfModel for Principled {
         value
     }
 
-    fn pdf(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
+    #[inline]
+    fn pdf_at(&self, p: &Point, wo: Vec3, wi: Vec3) -> f32 {
         let (co, ci) = (wo.z, wi.z);
         if co == 0.0 || co * ci == 0.0 {
             return 0.0;
         }
-        let p = self.at(m, si);
         let front = co > 0.0;
         if !front && p.glass <= 0.0 {
             return 0.0;

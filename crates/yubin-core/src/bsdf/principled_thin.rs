@@ -241,7 +241,7 @@ impl BsdfModel for PrincipledThin {
             )
         };
         let wi = if wo.z < 0.0 { -wi_up } else { wi_up };
-        let pdf = self.pdf(m, ctx, si, wo, wi);
+        let pdf = self.pdf_at(&p, wo, wi);
         if !(pdf > 0.0) {
             return None;
         }
@@ -250,22 +250,41 @@ impl BsdfModel for PrincipledThin {
             pdf,
             eta: 1.0,
             sampled,
-            weight: self.eval(m, ctx, si, wo, wi) / pdf,
+            weight: self.eval_at(&p, ctx, wo, wi) / pdf,
         })
     }
 
     fn eval(
         &self,
         m: &Materials,
-        _: &BsdfContext,
+        ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
         wi: Vec3,
     ) -> Rgb {
+        self.eval_at(&self.at(m, si), ctx, wo, wi)
+    }
+
+    fn pdf(
+        &self,
+        m: &Materials,
+        _: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> f32 {
+        self.pdf_at(&self.at(m, si), wo, wi)
+    }
+}
+
+/// The three methods at an evaluated point (so that `sample` reads the
+/// textures once).
+impl PrincipledThin {
+    #[inline]
+    fn eval_at(&self, p: &Point, _: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z == 0.0 || wi.z == 0.0 {
             return Rgb::ZERO;
         }
-        let p = self.at(m, si);
         let (wo, wi) = to_front(wo, wi);
         let (co, ci) = (wo.z, wi.z);
         let reflect = ci > 0.0;
@@ -301,18 +320,11 @@ impl BsdfModel for PrincipledThin {
         value
     }
 
-    fn pdf(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
+    #[inline]
+    fn pdf_at(&self, p: &Point, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z == 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        let p = self.at(m, si);
         let (wo, wi) = to_front(wo, wi);
         let reflect = wi.z > 0.0;
         let [psr, pst, pdr, pdt] = self.lobe_probabilities(&p);
