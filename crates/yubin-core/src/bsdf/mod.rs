@@ -24,6 +24,7 @@ mod blend_bsdf;
 mod bump_map;
 mod conductor;
 mod dielectric;
+mod difftrans;
 mod diffuse;
 pub mod fresnel;
 mod mask;
@@ -31,9 +32,11 @@ pub mod microfacet;
 mod normal_map;
 mod null;
 mod perturbed;
+mod phong;
 mod plastic;
 mod rough_conductor;
 mod rough_dielectric;
+mod rough_diffuse;
 mod rough_plastic;
 mod thin_dielectric;
 mod twosided;
@@ -42,13 +45,16 @@ pub use blend_bsdf::BlendBsdf;
 pub use bump_map::BumpMap;
 pub use conductor::{Conductor, ConductorIor};
 pub use dielectric::Dielectric;
+pub use difftrans::DiffTrans;
 pub use diffuse::Diffuse;
 pub use mask::Mask;
 pub use normal_map::NormalMap;
 pub use null::Null;
+pub use phong::Phong;
 pub use plastic::{fresnel_diffuse_reflectance, Plastic};
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
+pub use rough_diffuse::RoughDiffuse;
 pub use rough_plastic::{RoughPlastic, RoughTransmittance};
 pub use thin_dielectric::ThinDielectric;
 pub use twosided::TwoSided;
@@ -207,6 +213,12 @@ pub enum Bsdf {
     Conductor(Conductor),
     /// `roughconductor`.
     RoughConductor(RoughConductor),
+    /// `roughdiffuse`.
+    RoughDiffuse(RoughDiffuse),
+    /// `phong`.
+    Phong(Phong),
+    /// `difftrans`.
+    DiffTrans(DiffTrans),
 }
 
 impl Bsdf {
@@ -311,6 +323,13 @@ pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
     ("roughconductor", |p| {
         Ok(Bsdf::RoughConductor(RoughConductor::from_params(p)?))
     }),
+    ("roughdiffuse", |p| {
+        Ok(Bsdf::RoughDiffuse(RoughDiffuse::from_params(p)?))
+    }),
+    ("phong", |p| Ok(Bsdf::Phong(Phong::from_params(p)?))),
+    ("difftrans", |p| {
+        Ok(Bsdf::DiffTrans(DiffTrans::from_params(p)?))
+    }),
 ];
 
 macro_rules! dispatch {
@@ -330,6 +349,9 @@ macro_rules! dispatch {
             Bsdf::RoughDielectric($b) => $e,
             Bsdf::Conductor($b) => $e,
             Bsdf::RoughConductor($b) => $e,
+            Bsdf::RoughDiffuse($b) => $e,
+            Bsdf::Phong($b) => $e,
+            Bsdf::DiffTrans($b) => $e,
         }
     };
 }
@@ -610,6 +632,9 @@ pub(crate) mod tests {
             rough_dielectric::tests::test_variants(),
             conductor::tests::test_variants(),
             rough_conductor::tests::test_variants(),
+            rough_diffuse::tests::test_variants(),
+            phong::tests::test_variants(),
+            difftrans::tests::test_variants(),
         ]
         .into_iter()
         .flatten()
