@@ -31,8 +31,9 @@
 //! Phong's, so masking is underestimated at grazing angles as α grows:
 //! the visible normals integrate to one within 1 % up to α = 0.2, and a
 //! rough Phong mirror reflects at most what it receives up to α = 0.4 but
-//! gains a few percent beyond (5 % at α = 0.6, 84° from the normal), as
-//! in Mitsuba 0.6; use `beckmann` for rough surfaces. Only isotropic:
+//! gains a few percent beyond (5 % at α = 0.6, 84° from the normal; a
+//! rough dielectric gains 1.4 % already at α = 0.4 there), as in
+//! Mitsuba 0.6; use `beckmann` for rough surfaces. Only isotropic:
 //! Mitsuba 0.6's anisotropic Ashikhmin–Shirley variant is not
 //! implemented, and different `alpha_u`, `alpha_v` are an error.
 //!
@@ -680,7 +681,7 @@ pub(crate) mod tests {
     /// 0.5 % of the exact Beckmann G1 of the same α. The fit belongs to
     /// Beckmann's D, not Phong's heavier-tailed one, so the visible
     /// normals integrate to one only approximately: within 1 % up to
-    /// α = 0.2 (and at any α near normal incidence), and a rough Phong
+    /// α = 0.2 (and up to α = 0.6 near normal incidence), and a rough Phong
     /// mirror keeps its albedo below one up to α = 0.4 — but not beyond
     /// (the documented limit: at α = 0.6 and θ = 84° it reflects 1.05).
     #[test]
@@ -715,7 +716,7 @@ pub(crate) mod tests {
             }
             for v in dirs {
                 let vis = integrate_hemisphere(&p, |m| p.visible_pdf(v, m) as f64);
-                if alpha <= 0.2 || v == dirs[0] {
+                if alpha <= 0.2 || (v == dirs[0] && alpha <= 0.6) {
                     assert!((vis - 1.0).abs() < 1e-2, "α {alpha} v {v}: {vis}");
                 }
                 let a = crate::bsdf::tests::albedo(&mirror(alpha), 0, v).x;

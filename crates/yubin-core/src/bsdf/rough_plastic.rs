@@ -153,11 +153,14 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 /// Gauss–Legendre rule on the sampler's unit square (Mitsuba 3 uses 32
 /// nodes per axis when η > 1 and 128 otherwise, where total internal
 /// reflection makes the integrand kink). A distribution that samples
-/// D(m) cos θm instead (Phong) weights each node by D_w / (D cos θm).
+/// D(m) cos θm instead (Phong) weights each node by D_w / (D cos θm) and
+/// divides by the sum of those weights: its approximate G1 makes D_w
+/// integrate to more than one at grazing angles, which would otherwise
+/// give a transmittance above one.
 fn visible_normal_integral(distr: &Microfacet, w: Vec3, eta: f32, g: impl Fn(Vec3) -> f32) -> f32 {
     let rule = gauss_legendre(if eta > 1.0 { 32 } else { 128 });
     let visible = distr.samples_visible();
-    let mut sum = 0.0f64;
+    let (mut sum, mut total) = (0.0f64, 0.0f64);
     for &(x, wx) in &rule {
         for &(y, wy) in &rule {
             let u = Vec2::new((0.5 * x + 0.5) as f32, (0.5 * y + 0.5) as f32);
@@ -169,8 +172,16 @@ fn visible_normal_integral(distr: &Microfacet, w: Vec3, eta: f32, g: impl Fn(Vec
                     f64::from(distr.visible_pdf(w, m)) / f64::from(pdf)
                 };
                 sum += f64::from(g(m)) * ratio * wx * wy;
+                total += ratio * wx * wy;
             }
         }
+    }
+    if !visible {
+        return if total > 0.0 {
+            (sum / total) as f32
+        } else {
+            0.0
+        };
     }
     // The square has area 1, the rule's domain area 4.
     (0.25 * sum) as f32
