@@ -32,7 +32,7 @@ fn load(version: &str, bsdf: &str) -> Result<(), String> {
 #[test]
 fn mitsuba_06_scenes_load() {
     let bsdfs = [
-        r#"<bsdf type="roughdiffuse"><srgb name="diffuseReflectance" value="#808080"/><float name="alpha" value="0.4"/><boolean name="useFastApprox" value="true"/></bsdf>"#,
+        r#"<bsdf type="roughdiffuse"><rgb name="diffuseReflectance" value="0.5"/><float name="alpha" value="0.4"/><boolean name="useFastApprox" value="true"/></bsdf>"#,
         r#"<bsdf type="phong"><float name="exponent" value="40"/><spectrum name="specularReflectance" value="0.3"/><spectrum name="diffuseReflectance" value="0.4"/></bsdf>"#,
         r#"<bsdf type="difftrans"><spectrum name="transmittance" value="0.7"/></bsdf>"#,
         r#"<bsdf type="roughconductor"><string name="distribution" value="phong"/><float name="alpha" value="0.2"/></bsdf>"#,
