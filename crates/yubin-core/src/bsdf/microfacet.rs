@@ -6,10 +6,10 @@
 //!
 //! | parameter        | type          | default    | meaning                                  |
 //! |------------------|---------------|------------|------------------------------------------|
-//! | `distribution`   | string        | `beckmann` | `beckmann` or `ggx`                      |
+//! | `distribution`   | string        | `beckmann` | `beckmann`, `ggx` or `phong`             |
 //! | `alpha`          | float/texture | 0.1        | isotropic roughness (for Beckmann, √2 × the RMS slope) |
-//! | `alpha_u`, `alpha_v` | float/texture | —      | anisotropic roughness along the tangents (both or neither; not with `alpha`) |
-//! | `sample_visible` | boolean       | true       | sample only the normals visible from `wo` |
+//! | `alpha_u`, `alpha_v` | float/texture | —      | anisotropic roughness along the tangents (both or neither; not with `alpha`; not for `phong`) |
+//! | `sample_visible` | boolean       | true       | sample only the normals visible from `wo` (ignored by `phong`) |
 //!
 //! ```xml
 //! <bsdf type="roughconductor">
@@ -18,6 +18,24 @@
 //!     <float name="alpha_v" value="0.3"/>
 //! </bsdf>
 //! ```
+//!
+//! `phong` is Mitsuba 0.6's third distribution (Walter et al. 2007, §5.2):
+//! D(m) = (αp + 2)/(2π) cos^αp θm with the exponent αp = 2/α² − 2 (clamped
+//! at 0), which matches it to the Beckmann distribution of the same α, so
+//! `alpha` keeps its meaning. Its Smith G1 is Walter's rational fit of
+//! Beckmann's with a = √(0.5 αp + 1)/tan θ (Mitsuba 0.6 uses 1/(α tan θ),
+//! the same for α ≤ 1). That G1 is approximate, so the density of visible
+//! normals has no exact sampler: Phong always samples D(m) cos θm, whose
+//! pdf is exact, whatever `sample_visible` says (Mitsuba 0.6 turns it off
+//! too). The fit belongs to Beckmann's D, whose tails are lighter than
+//! Phong's, so masking is underestimated at grazing angles as α grows:
+//! the visible normals integrate to one within 1 % up to α = 0.2, and a
+//! rough Phong mirror reflects at most what it receives up to α = 0.4 but
+//! gains a few percent beyond (5 % at α = 0.6, 84° from the normal; a
+//! rough dielectric gains 1.4 % already at α = 0.4 there), as in
+//! Mitsuba 0.6; use `beckmann` for rough surfaces. Only isotropic:
+//! Mitsuba 0.6's anisotropic Ashikhmin–Shirley variant is not
+//! implemented, and different `alpha_u`, `alpha_v` are an error.
 //!
 //! Conventions (Mitsuba 3's): directions in the local frame, +z the
 //! macro-surface normal; `alpha_u` scales slopes along x, `alpha_v` along
@@ -44,14 +62,17 @@ use crate::Rgb;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
-/// The shape of the microfacet normal distribution. More shapes (Phong)
-/// may be added; every `match` on it is in this file.
+/// The shape of the microfacet normal distribution; every `match` on it
+/// is in this file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MicrofacetType {
     /// Beckmann–Spizzichino: Gaussian slopes.
     Beckmann,
     /// GGX / Trowbridge–Reitz: long-tailed slopes.
     Ggx,
+    /// Phong: cosine-power normals, exponent 2/α² − 2 (isotropic only;
+    /// never samples visible normals).
+    Phong,
 }
 
 /// A microfacet distribution at one point of a surface.
@@ -78,13 +99,37 @@ impl Microfacet {
         }
     }
 
+    /// Whether [`Microfacet::sample`] draws visible normals: when asked
+    /// to, except for Phong, whose Smith G1 is an approximation (the
+    /// visible normals' density would not integrate to one, and the
+    /// sampler would not match it), as in Mitsuba 0.6.
+    #[inline]
+    pub fn samples_visible(&self) -> bool {
+        self.sample_visible && self.kind != MicrofacetType::Phong
+    }
+
+    /// The Phong exponent αp = 2/α² − 2 of the Beckmann-equivalent
+    /// roughness α = `alpha_u` (Walter et al. 2007, §5.2), clamped at 0
+    /// (α > 1 gives the uniform D = 1/π).
+    #[inline]
+    pub fn phong_exponent(&self) -> f32 {
+        (2.0 / (self.alpha_u * self.alpha_u) - 2.0).max(0.0)
+    }
+
     /// The normal distribution D(m), normalized so that
-    /// ∫ D(m) cos θm dωm = 1 (Walter et al. 2007, eqs. 25 and 33, with
-    /// the slopes stretched by (αu, αv)). Zero below the surface.
+    /// ∫ D(m) cos θm dωm = 1 (Walter et al. 2007: eqs. 25 and 33 for
+    /// Beckmann and GGX, with the slopes stretched by (αu, αv); §5.2 for
+    /// Phong). Zero below the surface.
     #[inline]
     pub fn d(&self, m: Vec3) -> f32 {
         if m.z <= 0.0 {
             return 0.0;
+        }
+        if self.kind == MicrofacetType::Phong {
+            // (αp + 2)/(2π) cos^αp θm (Walter et al. 2007, §5.2).
+            let e = self.phong_exponent();
+            let d = (e + 2.0) * (0.5 / PI) * m.z.powf(e);
+            return if d.is_finite() { d } else { 0.0 };
         }
         let cos2 = m.z * m.z;
         // tan²θm (cos²φ/αu² + sin²φ/αv²): the squared slope of the
@@ -94,6 +139,7 @@ impl Microfacet {
         let d = match self.kind {
             MicrofacetType::Beckmann => (-e).exp() / norm,
             MicrofacetType::Ggx => 1.0 / (norm * sq(1.0 + e)),
+            MicrofacetType::Phong => unreachable!("handled above"),
         };
         if d.is_finite() {
             d
@@ -125,6 +171,19 @@ impl Microfacet {
                 let t2 = xy / (v.z * v.z);
                 0.5 * t2 / (1.0 + (1.0 + t2).sqrt())
             }
+            MicrofacetType::Phong => {
+                // Walter et al. 2007, §5.2: Beckmann's G1 through Walter's
+                // rational fit of it (§5.1, under 0.35 % error), with
+                // a = √(0.5 αp + 1) / tan θ; Λ = 1/G1 − 1. (For α ≤ 1
+                // √(0.5 αp + 1) = 1/α, Beckmann's own a.)
+                let tan = (v.x * v.x + v.y * v.y).sqrt() / v.z.abs();
+                let a = (0.5 * self.phong_exponent() + 1.0).sqrt() / tan;
+                if a >= 1.6 {
+                    return 0.0;
+                }
+                let g1 = (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a);
+                (1.0 / g1 - 1.0).max(0.0)
+            }
         }
     }
 
@@ -148,14 +207,15 @@ impl Microfacet {
     /// surface; callers flip it otherwise) and returns it with its density
     /// [`Microfacet::pdf`]: the visible normals
     /// D_wo(m) = G1(wo, m) max(0, wo·m) D(m) / cos θo when
-    /// `sample_visible`, otherwise D(m) cos θm. A density of 0 means no
-    /// usable sample.
+    /// [`Microfacet::samples_visible`], otherwise D(m) cos θm. A density
+    /// of 0 means no usable sample.
     #[inline]
     pub fn sample(&self, wo: Vec3, u: Vec2) -> (Vec3, f32) {
-        let m = if self.sample_visible {
+        let m = if self.samples_visible() {
             match self.kind {
                 MicrofacetType::Ggx => self.sample_visible_ggx(wo, u),
                 MicrofacetType::Beckmann => self.sample_visible_beckmann(wo, u),
+                MicrofacetType::Phong => unreachable!("never samples visible normals"),
             }
         } else {
             self.sample_all(u)
@@ -169,14 +229,22 @@ impl Microfacet {
     /// Density of [`Microfacet::sample`] per solid angle of `m`.
     #[inline]
     pub fn pdf(&self, wo: Vec3, m: Vec3) -> f32 {
-        if self.sample_visible {
-            if wo.z == 0.0 {
-                return 0.0;
-            }
-            self.d(m) * self.g1(wo, m) * wo.dot(m).abs() / wo.z.abs()
+        if self.samples_visible() {
+            self.visible_pdf(wo, m)
         } else {
             self.d(m) * m.z
         }
+    }
+
+    /// The density of the normals visible from `wo`,
+    /// D_wo(m) = G1(wo, m) |wo·m| D(m) / |cos θo| (Heitz 2014, eq. 38),
+    /// whichever way [`Microfacet::sample`] draws them.
+    #[inline]
+    pub fn visible_pdf(&self, wo: Vec3, m: Vec3) -> f32 {
+        if wo.z == 0.0 {
+            return 0.0;
+        }
+        self.d(m) * self.g1(wo, m) * wo.dot(m).abs() / wo.z.abs()
     }
 
     /// D(m) cos θm: the slope distribution at unit roughness, whose radial
@@ -189,6 +257,7 @@ impl Microfacet {
             MicrofacetType::Beckmann => -(1.0 - u0).ln(),
             // P(r < R) = R² / (1 + R²).
             MicrofacetType::Ggx => u0 / (1.0 - u0),
+            MicrofacetType::Phong => return self.sample_phong(u),
         };
         let (sin_phi, cos_phi) = (2.0 * PI * u.y).sin_cos();
         let r = r2.sqrt();
@@ -198,6 +267,22 @@ impl Microfacet {
             1.0,
         )
         .normalize()
+    }
+
+    /// D(m) cos θm for Phong: cos θm = u^{1/(αp + 2)} inverts the CDF of
+    /// (αp + 2) cos^{αp+1} θ sin θ (Walter et al. 2007, §5.2), φ uniform;
+    /// sin² θm = −expm1(2 ln u / (αp + 2)) stays accurate for large αp.
+    /// A normal within 10⁻⁶ of the horizon (probability at most 10⁻¹²)
+    /// is no sample: its density rounds to 0 there.
+    fn sample_phong(&self, u: Vec2) -> Vec3 {
+        let l = u.x.max(f32::MIN_POSITIVE).ln() / (self.phong_exponent() + 2.0);
+        let cos_theta = l.exp();
+        if cos_theta < 1e-6 {
+            return Vec3::NAN;
+        }
+        let sin_theta = (-(2.0 * l).exp_m1()).max(0.0).sqrt();
+        let (sin_phi, cos_phi) = (2.0 * PI * u.y).sin_cos();
+        Vec3::new(sin_theta * cos_phi, sin_theta * sin_phi, cos_theta)
     }
 
     /// Heitz 2018: in the configuration stretched to unit roughness, the
@@ -386,11 +471,13 @@ impl Roughness {
     }
 
     /// Reads `distribution`, `alpha` or `alpha_u`/`alpha_v`, and
-    /// `sample_visible` (see the module docs).
+    /// `sample_visible` (see the module docs). A `phong` distribution
+    /// must be isotropic.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
-        let kind = match p.choice("distribution", &["beckmann", "ggx"])? {
+        let kind = match p.choice("distribution", &["beckmann", "ggx", "phong"])? {
             0 => MicrofacetType::Beckmann,
-            _ => MicrofacetType::Ggx,
+            1 => MicrofacetType::Ggx,
+            _ => MicrofacetType::Phong,
         };
         let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
             if p.has("alpha") {
@@ -401,6 +488,13 @@ impl Roughness {
             }
             let u = alpha_param(p, "alpha_u", "alpha_v")?;
             let v = alpha_param(p, "alpha_v", "alpha_u")?;
+            if kind == MicrofacetType::Phong && u != v {
+                return Err(p.param_error(
+                    "alpha_u",
+                    "the \"phong\" distribution is isotropic here (no Ashikhmin–Shirley \
+                     extension): give \"alpha\", or equal \"alpha_u\" and \"alpha_v\"",
+                ));
+            }
             (u, v)
         } else {
             let a = p.texture_or("alpha", ColorKind::Reflectance, Rgb::splat(0.1))?;
@@ -560,6 +654,81 @@ pub(crate) mod tests {
         }
     }
 
+    /// ∫ D cos θm dω = 1 for Phong, from sharp (α = 0.01, exponent
+    /// ≈ 20 000) to the clamped uniform D at α > 1; and αp = 2/α² − 2.
+    #[test]
+    fn phong_is_normalized() {
+        for alpha in [0.01f32, 0.05, 0.1, 0.3, 0.7, 1.0, 1.5] {
+            let d = Microfacet::isotropic(MicrofacetType::Phong, alpha, true);
+            let total = integrate_hemisphere(&d, |m| (d.d(m) * m.z) as f64);
+            assert!(
+                (total - 1.0).abs() < 2e-3,
+                "Phong α={alpha}: ∫ D cos θ = {total}"
+            );
+            let e = (2.0 / (alpha * alpha) - 2.0).max(0.0);
+            assert!((d.phong_exponent() - e).abs() <= 1e-6 * e.max(1.0));
+            // Visible-normal sampling is never used for Phong.
+            assert!(!d.samples_visible());
+            let m = Vec3::new(0.1, 0.2, 0.9).normalize();
+            assert_eq!(d.pdf(Vec3::new(0.5, 0.0, 0.8).normalize(), m), d.d(m) * m.z);
+        }
+        // αp = 0: the uniform distribution of cosines, D = 1/π.
+        let d = Microfacet::isotropic(MicrofacetType::Phong, 1.0, false);
+        assert!((d.d(Vec3::new(0.6, 0.0, 0.8)) - 1.0 / PI).abs() < 1e-7);
+    }
+
+    /// Phong's G1 (Walter's fit with a = √(0.5 αp + 1)/tan θ) is within
+    /// 0.5 % of the exact Beckmann G1 of the same α. The fit belongs to
+    /// Beckmann's D, not Phong's heavier-tailed one, so the visible
+    /// normals integrate to one only approximately: within 1 % up to
+    /// α = 0.2 (and up to α = 0.6 near normal incidence), and a rough Phong
+    /// mirror keeps its albedo below one up to α = 0.4 — but not beyond
+    /// (the documented limit: at α = 0.6 and θ = 84° it reflects 1.05).
+    #[test]
+    fn phong_masking_is_beckmanns() {
+        let mirror = |alpha: f32| {
+            Materials::with_bsdfs(vec![crate::bsdf::Bsdf::RoughConductor(
+                crate::bsdf::RoughConductor {
+                    roughness: Roughness::isotropic(MicrofacetType::Phong, alpha, false),
+                    ior: crate::bsdf::ConductorIor {
+                        eta: Tex::value(0.0),
+                        k: Tex::value(1.0),
+                    },
+                    specular_reflectance: Tex::value(1.0),
+                },
+            )])
+        };
+        let dirs = [
+            Vec3::new(0.3, 0.2, 0.9).normalize(),
+            Vec3::new(-0.7, 0.3, 0.4).normalize(),
+            Vec3::new(0.9, 0.0, 0.1).normalize(),
+        ];
+        for alpha in [0.05f32, 0.2, 0.4, 0.6, 1.0] {
+            let p = Microfacet::isotropic(MicrofacetType::Phong, alpha, false);
+            let b = Microfacet::isotropic(MicrofacetType::Beckmann, alpha, false);
+            for theta in [0.0f32, 0.3, 0.8, 1.2, 1.4, 1.55] {
+                let v = Vec3::new(theta.sin(), 0.0, theta.cos());
+                let (gp, gb) = (p.g1(v, Vec3::Z), b.g1(v, Vec3::Z));
+                assert!(
+                    (gp - gb).abs() <= 5e-3 * gb.max(1e-3),
+                    "α {alpha} θ {theta}: Phong G1 {gp}, Beckmann {gb}"
+                );
+            }
+            for v in dirs {
+                let vis = integrate_hemisphere(&p, |m| p.visible_pdf(v, m) as f64);
+                if alpha <= 0.2 || (v == dirs[0] && alpha <= 0.6) {
+                    assert!((vis - 1.0).abs() < 1e-2, "α {alpha} v {v}: {vis}");
+                }
+                let a = crate::bsdf::tests::albedo(&mirror(alpha), 0, v).x;
+                if alpha <= 0.4 {
+                    assert!(a < 1.0 + 2e-3, "α {alpha} v {v}: mirror albedo {a}");
+                }
+            }
+        }
+        let a = crate::bsdf::tests::albedo(&mirror(0.6), 0, dirs[2]).x;
+        assert!(a > 1.02, "the documented energy gain at α 0.6: {a}");
+    }
+
     #[test]
     fn projected_area_identity() {
         // ∫ G1(v, m) max(0, v·m) D(m) dωm = cos θv (Heitz 2014, eq. 7):
@@ -611,7 +780,8 @@ pub(crate) mod tests {
 
     /// Chi-square test of `sample` against `pdf` over every combination
     /// the brief of this module lists: 2 shapes × visible or not ×
-    /// isotropic or not × 3 roughnesses × 4 directions (Šidák-corrected).
+    /// isotropic or not × 3 roughnesses × 4 directions, and isotropic
+    /// Phong at 4 roughnesses (Šidák-corrected).
     ///
     /// The harness bins in (cos θ, φ) about +z, whose cells near the pole
     /// are too coarse in θ to integrate a lobe of width α = 0.05 sitting
@@ -653,6 +823,15 @@ pub(crate) mod tests {
         // A proper rotation taking +z to +x, and its inverse.
         let rot = |v: Vec3| Vec3::new(v.z, v.x, v.y);
         let unrot = |v: Vec3| Vec3::new(v.y, v.z, v.x);
+        // Phong (isotropic; always D cos θm), α from sharp to uniform.
+        for alpha in [0.05, 0.3, 1.0, 1.5] {
+            for wo in wos {
+                cases.push((
+                    Microfacet::isotropic(MicrofacetType::Phong, alpha, true),
+                    wo,
+                ));
+            }
+        }
         let mut failures = Vec::new();
         for (d, wo) in cases {
             let res = chi2_directions(
@@ -700,7 +879,31 @@ pub(crate) mod tests {
             .float("alpha_v", f32::NAN));
         assert!(e.contains("\"alpha_v\""), "{e}");
         let e = err(MapParams::new().string("distribution", "phong2"));
-        assert!(e.contains("distribution"), "{e}");
+        assert!(
+            e.contains("distribution") && e.contains("phong2") && e.contains("phong"),
+            "{e}"
+        );
+
+        // Phong: isotropic only.
+        let mut p = MapParams::new()
+            .string("distribution", "phong")
+            .float("alpha", 0.3);
+        let r = Roughness::from_params(&mut p).unwrap();
+        assert!(p.unread().is_empty(), "{:?}", p.unread());
+        assert_eq!(r, Roughness::isotropic(MicrofacetType::Phong, 0.3, true));
+        let r = Roughness::from_params(
+            &mut MapParams::new()
+                .string("distribution", "phong")
+                .float("alpha_u", 0.2)
+                .float("alpha_v", 0.2),
+        )
+        .unwrap();
+        assert_eq!(r.kind, MicrofacetType::Phong);
+        let e = err(MapParams::new()
+            .string("distribution", "phong")
+            .float("alpha_u", 0.1)
+            .float("alpha_v", 0.3));
+        assert!(e.contains("isotropic") && e.contains("alpha_u"), "{e}");
     }
 
     #[test]

@@ -24,6 +24,7 @@ mod blend_bsdf;
 mod bump_map;
 mod conductor;
 mod dielectric;
+mod difftrans;
 mod diffuse;
 mod disney;
 pub mod fresnel;
@@ -32,11 +33,13 @@ pub mod microfacet;
 mod normal_map;
 mod null;
 mod perturbed;
+mod phong;
 mod plastic;
 mod principled;
 mod principled_thin;
 mod rough_conductor;
 mod rough_dielectric;
+mod rough_diffuse;
 mod rough_plastic;
 mod thin_dielectric;
 mod twosided;
@@ -45,16 +48,19 @@ pub use blend_bsdf::BlendBsdf;
 pub use bump_map::BumpMap;
 pub use conductor::{Conductor, ConductorIor};
 pub use dielectric::Dielectric;
+pub use difftrans::DiffTrans;
 pub use diffuse::Diffuse;
 pub use disney::DisneyParams;
 pub use mask::Mask;
 pub use normal_map::NormalMap;
 pub use null::Null;
+pub use phong::Phong;
 pub use plastic::{fresnel_diffuse_reflectance, Plastic};
 pub use principled::Principled;
 pub use principled_thin::PrincipledThin;
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
+pub use rough_diffuse::RoughDiffuse;
 pub use rough_plastic::{RoughPlastic, RoughTransmittance};
 pub use thin_dielectric::ThinDielectric;
 pub use twosided::TwoSided;
@@ -217,6 +223,12 @@ pub enum Bsdf {
     Principled(Principled),
     /// `principledthin`.
     PrincipledThin(PrincipledThin),
+    /// `roughdiffuse`.
+    RoughDiffuse(RoughDiffuse),
+    /// `phong`.
+    Phong(Phong),
+    /// `difftrans`.
+    DiffTrans(DiffTrans),
 }
 
 impl Bsdf {
@@ -327,6 +339,13 @@ pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
     ("principledthin", |p| {
         Ok(Bsdf::PrincipledThin(PrincipledThin::from_params(p)?))
     }),
+    ("roughdiffuse", |p| {
+        Ok(Bsdf::RoughDiffuse(RoughDiffuse::from_params(p)?))
+    }),
+    ("phong", |p| Ok(Bsdf::Phong(Phong::from_params(p)?))),
+    ("difftrans", |p| {
+        Ok(Bsdf::DiffTrans(DiffTrans::from_params(p)?))
+    }),
 ];
 
 macro_rules! dispatch {
@@ -348,6 +367,9 @@ macro_rules! dispatch {
             Bsdf::RoughConductor($b) => $e,
             Bsdf::Principled($b) => $e,
             Bsdf::PrincipledThin($b) => $e,
+            Bsdf::RoughDiffuse($b) => $e,
+            Bsdf::Phong($b) => $e,
+            Bsdf::DiffTrans($b) => $e,
         }
     };
 }
@@ -636,6 +658,9 @@ pub(crate) mod tests {
             rough_conductor::tests::test_variants(),
             principled::tests::test_variants(),
             principled_thin::tests::test_variants(),
+            rough_diffuse::tests::test_variants(),
+            phong::tests::test_variants(),
+            difftrans::tests::test_variants(),
         ]
         .into_iter()
         .flatten()

@@ -1,13 +1,13 @@
 //! `roughconductor`: a rough metal, the Torrance–Sparrow microfacet model
-//! with a Beckmann or GGX distribution and the Fresnel reflectance of a
-//! complex index of refraction η + ik.
+//! with a Beckmann, GGX or Phong distribution and the Fresnel reflectance
+//! of a complex index of refraction η + ik.
 //!
 //! | parameter              | type                     | default    | meaning |
 //! |------------------------|--------------------------|------------|---------|
 //! | `material`             | string                   | `none`     | a measured metal (`Au`, `Cu`, ...); `none` is a perfect mirror (η = 0, k = 1) |
 //! | `eta`, `k`             | texture / rgb / spectrum | 0, 1       | complex IOR relative to the exterior (only with `material="none"`) |
 //! | `specular_reflectance` | texture / rgb / spectrum | 1          | multiplies the reflectance (not physical) |
-//! | `distribution`         | string                   | `beckmann` | `beckmann` or `ggx` |
+//! | `distribution`         | string                   | `beckmann` | `beckmann`, `ggx` or `phong` (isotropic only) |
 //! | `alpha`                | float / texture          | 0.1        | isotropic roughness |
 //! | `alpha_u`, `alpha_v`   | float / texture          | —          | anisotropic roughness along the tangents (instead of `alpha`) |
 //! | `sample_visible`       | boolean                  | true       | sample the normals visible from `wo` |
@@ -102,7 +102,7 @@ impl BsdfModel for RoughConductor {
         let f = self.fresnel(m, si, wo_h);
         // eval / pdf, with the factors that cancel left out: F G1(wi) for
         // visible normals, F G wo·h / (cos θo cos θh) otherwise.
-        let weight = if d.sample_visible {
+        let weight = if d.samples_visible() {
             f * d.g1(wi, h)
         } else {
             f * (d.g(wo, wi, h) * wo_h / (wo.z * h.z))
@@ -367,9 +367,11 @@ pub(crate) mod tests {
         assert!(RoughConductor::from_params(&mut MapParams::new().float("alpha", -0.1)).is_err());
     }
 
-    /// Configurations for the table-driven tests in `bsdf/mod.rs`: both
-    /// distributions, visible sampling on and off, roughness from 0.01 to
-    /// 1, anisotropic, a textured roughness. None is lossless.
+    /// Configurations for the table-driven tests in `bsdf/mod.rs`:
+    /// Beckmann and GGX with visible sampling on and off, roughness from
+    /// 0.01 to 1, anisotropic; Phong from 0.02 to 0.4 (beyond, its
+    /// approximate masking gains energy at grazing angles: see
+    /// `microfacet`); a textured roughness. None is lossless.
     pub(crate) fn test_variants() -> Vec<Variant> {
         let mut out = Vec::new();
         for kind in [MicrofacetType::Beckmann, MicrofacetType::Ggx] {
@@ -389,6 +391,20 @@ pub(crate) mod tests {
                     ));
                 }
             }
+        }
+        // Phong (always samples D cos θm; `sample_visible` is ignored).
+        for alpha in [0.02, 0.1, 0.2, 0.4] {
+            out.push(Variant::last(
+                format!("roughconductor (Phong, α={alpha}, gold)"),
+                vec![rough(
+                    MicrofacetType::Phong,
+                    alpha,
+                    alpha,
+                    true,
+                    AU_ETA,
+                    AU_K,
+                )],
+            ));
         }
         out.push(Variant::last(
             "roughconductor (GGX, α=0.3, material none)",

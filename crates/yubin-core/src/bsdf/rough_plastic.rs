@@ -3,7 +3,7 @@
 //!
 //! | parameter              | type                     | default                | meaning                                                        |
 //! |------------------------|--------------------------|------------------------|----------------------------------------------------------------|
-//! | `distribution`         | string                   | `beckmann`             | microfacet distribution: `beckmann` or `ggx`                   |
+//! | `distribution`         | string                   | `beckmann`             | microfacet distribution: `beckmann`, `ggx` or `phong`          |
 //! | `alpha`                | float or texture         | 0.1                    | roughness of the coating (isotropic only)                      |
 //! | `sample_visible`       | boolean                  | true                   | sample only the microfacet normals visible from `wo`           |
 //! | `int_ior`              | float or IOR name        | `polypropylene` (1.49) | index of refraction of the coating                             |
@@ -42,7 +42,9 @@
 //! three values), which the BSDF refers to by index. Both are integrals
 //! over the visible normals by Gauss–Legendre quadrature, on the same
 //! nodes and with the same discretisation of R as Mitsuba 3, so that the
-//! values match it. A textured `alpha` (Mitsuba allows only a float) is
+//! values match it (a `phong` coating, which samples D cos θ rather than
+//! the visible normals, weights each node by the ratio of the two
+//! densities). A textured `alpha` (Mitsuba allows only a float) is
 //! used as is by the specular lobe; the tables then use its mean.
 //! Anisotropic roughness is rejected, as in Mitsuba.
 //!
@@ -150,18 +152,36 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 /// ∫ g(m) D_w(m) dm over the visible normals of `w`, as a tensor-product
 /// Gauss–Legendre rule on the sampler's unit square (Mitsuba 3 uses 32
 /// nodes per axis when η > 1 and 128 otherwise, where total internal
-/// reflection makes the integrand kink).
+/// reflection makes the integrand kink). A distribution that samples
+/// D(m) cos θm instead (Phong) weights each node by D_w / (D cos θm) and
+/// divides by the sum of those weights: its approximate G1 makes D_w
+/// integrate to more than one at grazing angles, which would otherwise
+/// give a transmittance above one.
 fn visible_normal_integral(distr: &Microfacet, w: Vec3, eta: f32, g: impl Fn(Vec3) -> f32) -> f32 {
     let rule = gauss_legendre(if eta > 1.0 { 32 } else { 128 });
-    let mut sum = 0.0f64;
+    let visible = distr.samples_visible();
+    let (mut sum, mut total) = (0.0f64, 0.0f64);
     for &(x, wx) in &rule {
         for &(y, wy) in &rule {
             let u = Vec2::new((0.5 * x + 0.5) as f32, (0.5 * y + 0.5) as f32);
             let (m, pdf) = distr.sample(w, u);
             if pdf > 0.0 {
-                sum += f64::from(g(m)) * wx * wy;
+                let ratio = if visible {
+                    1.0
+                } else {
+                    f64::from(distr.visible_pdf(w, m)) / f64::from(pdf)
+                };
+                sum += f64::from(g(m)) * ratio * wx * wy;
+                total += ratio * wx * wy;
             }
         }
+    }
+    if !visible {
+        return if total > 0.0 {
+            (sum / total) as f32
+        } else {
+            0.0
+        };
     }
     // The square has area 1, the rule's domain area 4.
     (0.25 * sum) as f32
@@ -670,6 +690,9 @@ pub(crate) mod tests {
             (MicrofacetType::Beckmann, 0.2, true),
             (MicrofacetType::Beckmann, 0.3, true),
             (MicrofacetType::Beckmann, 0.3, false),
+            (MicrofacetType::Phong, 0.2, true),
+            (MicrofacetType::Phong, 0.4, false),
+            (MicrofacetType::Phong, 1.0, true),
         ]
         .into_iter()
         .map(|(kind, alpha, visible)| {
