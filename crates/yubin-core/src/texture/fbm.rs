@@ -23,8 +23,8 @@
 //! ```
 //!
 //! The sum f(p) = Σᵢ gainⁱ · n(lacunarityⁱ · p), i = 0 … octaves − 1, of
-//! improved Perlin noise n (see `perlin`; Musgrave's fBm in Ebert et al.,
-//! "Texturing and Modeling: A Procedural Approach", ch. 16) lies within
+//! improved Perlin noise n (see `perlin`; Musgrave's fBm, in Ebert et
+//! al., "Texturing and Modeling: A Procedural Approach", 3rd ed. 2003) lies within
 //! ±Σᵢ gainⁱ (< 2 for the default gain) but stays mostly in [−1, 1]. It is
 //! mapped to colours as `perlin` maps its noise, t = clamp(½(f + 1), 0, 1),
 //! colour (1 − t)·`color0` + t·`color1`, without normalising, so one octave

@@ -74,8 +74,10 @@ fn fade(t: Vec3) -> (Vec3, Vec3) {
     (s, u * u * 30.0)
 }
 
-/// Improved Perlin noise at `p` and its gradient ∂n/∂p. The value lies in
-/// [−1, 1] (a bound the 12 gradients keep; tested over random points).
+/// Improved Perlin noise at `p` and its gradient ∂n/∂p. The value stays
+/// within [−1, 1] in practice (its extremes, near ±1, are where several
+/// corner gradients point the same way; the tests check the bound over
+/// random points for this table, not a proof for every permutation).
 #[inline]
 pub fn perlin(p: Vec3) -> (f32, Vec3) {
     if !p.is_finite() {

@@ -19,9 +19,9 @@
 //! </texture>
 //! ```
 //!
-//! The noise n ∈ [−1, 1] (Perlin 2002, "Improving Noise": quintic fade,
-//! 12 gradient directions, the paper's permutation table) becomes the
-//! weight t = clamp(½(n + 1), 0, 1) and the colour
+//! The noise n, within [−1, 1] in practice (Perlin 2002, "Improving
+//! Noise": quintic fade, 12 gradient directions, the paper's permutation
+//! table), becomes the weight t = clamp(½(n + 1), 0, 1) and the colour
 //! (1 − t)·`color0` + t·`color1`; read as a float it is the same blend of
 //! the colours' values. The noise is 0 (t = ½) at the integer points of
 //! texture space, has lattice features about one unit across, and repeats
