@@ -27,6 +27,8 @@ pub enum Value {
     Image(u32),
     /// A transform matrix.
     Transform(glam::DMat4),
+    /// A point or vector.
+    Vector(Vec3),
 }
 
 /// Named values and which of them were read.
@@ -143,7 +145,8 @@ impl Params for MapParams {
     fn point(&mut self, name: &str) -> Result<Option<Vec3>, ParamError> {
         match self.take(name) {
             None => Ok(None),
-            Some(_) => Err(self.wrong(name, "nothing (points are not supported here)")),
+            Some(Value::Vector(v)) => Ok(Some(v)),
+            Some(_) => Err(self.wrong(name, "a point or vector")),
         }
     }
     fn vector(&mut self, name: &str) -> Result<Option<Vec3>, ParamError> {

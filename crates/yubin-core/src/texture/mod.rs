@@ -17,15 +17,29 @@
 
 mod bitmap;
 mod checkerboard;
+mod fbm;
+mod grid;
 pub mod image;
 mod mesh_attribute;
+mod mix;
+pub mod noise;
+mod normal_deviation;
+mod perlin;
+mod scale;
 
 pub use bitmap::{Bitmap, FilterType, WrapMode};
 pub use checkerboard::Checkerboard;
+pub use fbm::Fbm;
+pub use grid::Grid;
 pub use image::TexImage;
 pub use mesh_attribute::{
     AttributeSlot, MeshAttribute, MeshAttributes, NamedAttribute, NO_ATTRIBUTES,
 };
+pub use mix::Mix;
+pub use noise::{NoiseMap, NoiseSpace};
+pub use normal_deviation::NormalDeviation;
+pub use perlin::Perlin;
+pub use scale::Scale;
 
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
@@ -54,8 +68,20 @@ pub enum Texture {
     Bitmap(Bitmap),
     /// `checkerboard`.
     Checkerboard(Checkerboard),
+    /// `fbm`.
+    Fbm(Fbm),
+    /// `grid`.
+    Grid(Grid),
     /// `mesh_attribute`.
     MeshAttribute(MeshAttribute),
+    /// `mix`.
+    Mix(Mix),
+    /// `normal_deviation`.
+    NormalDeviation(NormalDeviation),
+    /// `perlin`.
+    Perlin(Perlin),
+    /// `scale`.
+    Scale(Scale),
 }
 
 macro_rules! dispatch {
@@ -63,7 +89,13 @@ macro_rules! dispatch {
         match $self {
             Texture::Bitmap($t) => $e,
             Texture::Checkerboard($t) => $e,
+            Texture::Fbm($t) => $e,
+            Texture::Grid($t) => $e,
             Texture::MeshAttribute($t) => $e,
+            Texture::Mix($t) => $e,
+            Texture::NormalDeviation($t) => $e,
+            Texture::Perlin($t) => $e,
+            Texture::Scale($t) => $e,
         }
     };
 }
@@ -191,7 +223,15 @@ pub const PLUGINS: &[(&str, TextureFromParams)] = &[
     ("checkerboard", |p| {
         Ok(Texture::Checkerboard(Checkerboard::from_params(p)?))
     }),
+    ("fbm", |p| Ok(Texture::Fbm(Fbm::from_params(p)?))),
+    ("grid", |p| Ok(Texture::Grid(Grid::from_params(p)?))),
     ("mesh_attribute", |p| {
         Ok(Texture::MeshAttribute(MeshAttribute::from_params(p)?))
     }),
+    ("mix", |p| Ok(Texture::Mix(Mix::from_params(p)?))),
+    ("normal_deviation", |p| {
+        Ok(Texture::NormalDeviation(NormalDeviation::from_params(p)?))
+    }),
+    ("perlin", |p| Ok(Texture::Perlin(Perlin::from_params(p)?))),
+    ("scale", |p| Ok(Texture::Scale(Scale::from_params(p)?))),
 ];
