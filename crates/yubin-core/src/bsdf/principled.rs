@@ -340,7 +340,7 @@ impl BsdfModel for Principled {
             (wi, BsdfFlags::GLOSSY_TRANSMISSION, eta_it)
         };
         let pdf = self.pdf_at(&p, wo, wi);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         let value = self.eval_at(&p, ctx, wo, wi);
@@ -394,7 +394,7 @@ impl Principled {
         let specular_d_g = || p.dist.d(h) * p.dist.g(wo, wi, h);
         if reflect && facet_agrees(h, wo, wi, true) {
             if f > 0.0 {
-                let fr = self.principled_fresnel(&p, f, oh, front);
+                let fr = self.principled_fresnel(p, f, oh, front);
                 value += fr * (specular_d_g() / (4.0 * co.abs()));
             }
             if front && p.clearcoat > 0.0 {
@@ -430,7 +430,7 @@ impl Principled {
         let (h, eta_path) = self.half_vector(wo, wi);
         let (oh, ih) = (wo.dot(h), wi.dot(h));
         let (f, ..) = fresnel_dielectric(oh, self.eta);
-        let [pd, pc, pr, pt] = self.lobe_probabilities(&p, front, f);
+        let [pd, pc, pr, pt] = self.lobe_probabilities(p, front, f);
         let up = if front { wo } else { -wo };
         let mut pdf = 0.0;
         if reflect {

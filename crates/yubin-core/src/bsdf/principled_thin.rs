@@ -242,7 +242,7 @@ impl BsdfModel for PrincipledThin {
         };
         let wi = if wo.z < 0.0 { -wi_up } else { wi_up };
         let pdf = self.pdf_at(&p, wo, wi);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         Some(BsdfSample {
@@ -327,7 +327,7 @@ impl PrincipledThin {
         }
         let (wo, wi) = to_front(wo, wi);
         let reflect = wi.z > 0.0;
-        let [psr, pst, pdr, pdt] = self.lobe_probabilities(&p);
+        let [psr, pst, pdr, pdt] = self.lobe_probabilities(p);
         let h = thin_half_vector(wo, wi);
         let mut pdf = 0.0;
         if facet_agrees(h, wo, wi, reflect) {
