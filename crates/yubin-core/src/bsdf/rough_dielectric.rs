@@ -505,13 +505,13 @@ pub(crate) mod tests {
                 })],
             ));
         }
-        // Phong up to α = 0.25 (beyond, its approximate masking gains
-        // energy at grazing angles: 1.4 % at α = 0.4; see `microfacet`).
+        // Phong, smooth to very rough.
         for (alpha, eta) in [
             (0.05, BK7_AIR),
             (0.1, 1.33),
             (0.2, 1.0 / 1.5),
-            (0.25, BK7_AIR),
+            (0.6, BK7_AIR),
+            (1.0, 1.33),
         ] {
             v.push(Variant::last(
                 format!("roughdielectric (Phong, α {alpha}, η {eta})"),

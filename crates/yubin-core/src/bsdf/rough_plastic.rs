@@ -154,9 +154,9 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 /// nodes per axis when η > 1 and 128 otherwise, where total internal
 /// reflection makes the integrand kink). A distribution that samples
 /// D(m) cos θm instead (Phong) weights each node by D_w / (D cos θm) and
-/// divides by the sum of those weights: its approximate G1 makes D_w
-/// integrate to more than one at grazing angles, which would otherwise
-/// give a transmittance above one.
+/// divides by the sum of those weights, which is one up to the rule's
+/// error (the peak of D cos θm is not where D_w's is, so the rule is less
+/// accurate there than on the visible normals' own square).
 fn visible_normal_integral(distr: &Microfacet, w: Vec3, eta: f32, g: impl Fn(Vec3) -> f32) -> f32 {
     let rule = gauss_legendre(if eta > 1.0 { 32 } else { 128 });
     let visible = distr.samples_visible();
