@@ -9,8 +9,8 @@
 //! | `anisotropic`     | float / texture | 0     | stretches the highlight along the first tangent (aspect √(1 − 0.9 a)) |
 //! | `metallic`        | float / texture | 0     | blends the dielectric towards a metal whose Fresnel is Schlick's with R0 = `base_color` |
 //! | `spec_trans`      | float / texture | 0     | blends the opaque response towards rough glass (tinted by √`base_color`) |
-//! | `specular`        | float         | 0.5     | dielectric reflectance: R0 = 0.08 `specular`, i.e. η = 2/(1 − √R0) − 1 |
-//! | `eta`             | float         | —       | the index ratio itself, instead of `specular` (not both) |
+//! | `specular`        | float / texture | 0.5   | dielectric reflectance: R0 = 0.08 `specular`, i.e. η = 2/(1 − √R0) − 1 |
+//! | `eta`             | float / texture | —     | the index ratio itself, instead of `specular` (not both) |
 //! | `spec_tint`       | float / texture | 0     | tints the dielectric reflection towards the hue of `base_color` |
 //! | `sheen`           | float / texture | 0     | a grazing-angle sheen for cloth |
 //! | `sheen_tint`      | float / texture | 0     | tints the sheen towards the hue of `base_color` |
@@ -68,9 +68,10 @@
 //!
 //! Ranges: constant weights outside [0, 1] are an error; textured ones
 //! are clamped to [0, 1] where read (Mitsuba takes them as they come).
-//! `eta` must be positive and `specular` in [0, 12.5) (R0 < 1); with
+//! `eta` must be positive and `specular` in [0, 12.4] (R0 < 1); with
 //! transmission, η = 1 is replaced by 1.001 (a transmissive interface
-//! needs η ≠ 1), as Mitsuba does.
+//! needs η ≠ 1), as Mitsuba does. Mitsuba reads `eta` and `specular` as
+//! floats only; yubin also takes textures for them.
 //!
 //! References: Burley 2012, "Physically Based Shading at Disney";
 //! Burley 2015, "Extending the Disney BRDF to a BSDF with Integrated
@@ -87,8 +88,9 @@ use super::microfacet::{Microfacet, MicrofacetType};
 use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
-use crate::params::{ParamError, Params};
+use crate::params::{ColorKind, ParamError, Params};
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::spectrum::luminance;
 use crate::texture::Tex;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
@@ -104,8 +106,8 @@ pub struct Principled {
     pub clearcoat: Tex,
     /// Clearcoat glossiness.
     pub clearcoat_gloss: Tex,
-    /// Relative index of refraction of the dielectric part.
-    pub eta: f32,
+    /// Index of refraction of the dielectric part.
+    pub ior: PrincipledIor,
     /// Sampling rates of the diffuse, main specular and clearcoat lobes.
     pub rates: [f32; 3],
 }
@@ -118,7 +120,7 @@ impl Principled {
             metallic: Tex::value(0.0),
             clearcoat: Tex::value(0.0),
             clearcoat_gloss: Tex::value(0.0),
-            eta: 1.5,
+            ior: PrincipledIor::Specular(Tex::value(0.5)),
             rates: [1.0; 3],
         }
     }
@@ -126,36 +128,19 @@ impl Principled {
     /// Builds the BSDF from its scene parameters.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
         let common = DisneyParams::from_params(p)?;
-        let transmits = common.may_transmit();
-        let eta = match (p.float("eta")?, p.has("specular")) {
+        let ior = match (p.texture("eta", ColorKind::Unbounded)?, p.has("specular")) {
             (Some(_), true) => {
                 return Err(p.param_error("specular", "give \"eta\" or \"specular\", not both"))
             }
             (Some(eta), false) => {
-                if !(eta > 0.0 && eta.is_finite()) {
-                    return Err(p.param_error("eta", &format!("must be positive, not {eta}")));
+                if let Some(e) = eta.as_const().map(luminance) {
+                    if !(e > 0.0 && e.is_finite()) {
+                        return Err(p.param_error("eta", &format!("must be positive, not {e}")));
+                    }
                 }
-                if transmits && eta == 1.0 {
-                    1.001
-                } else {
-                    eta
-                }
+                PrincipledIor::Eta(eta)
             }
-            (None, _) => {
-                let mut s = p.float_or("specular", 0.5)?;
-                if !(0.0..12.5).contains(&s) {
-                    return Err(p.param_error(
-                        "specular",
-                        &format!(
-                            "must lie in [0, 12.5) (reflectance 0.08 × specular < 1), not {s}"
-                        ),
-                    ));
-                }
-                if transmits && s == 0.0 {
-                    s = 1e-3;
-                }
-                2.0 / (1.0 - (0.08 * s).sqrt()) - 1.0
-            }
+            (None, _) => PrincipledIor::Specular(weight_param(p, "specular", 0.5, MAX_SPECULAR)?),
         };
         let mut rates = [1.0; 3];
         for (r, name) in rates.iter_mut().zip([
@@ -173,9 +158,34 @@ impl Principled {
             metallic: weight_param(p, "metallic", 0.0, 1.0)?,
             clearcoat: weight_param(p, "clearcoat", 0.0, 1.0)?,
             clearcoat_gloss: weight_param(p, "clearcoat_gloss", 0.0, 1.0)?,
-            eta,
+            ior,
             rates,
         })
+    }
+
+    /// The relative index at `si`. As in Mitsuba, a transmissive
+    /// principled gets 1.001 for η = 1 (specular 0 gives 1e-3), since a
+    /// refracting interface needs η ≠ 1.
+    #[inline]
+    fn eta_at(&self, m: &Materials, si: &SurfaceInteraction) -> f32 {
+        let transmits = self.common.may_transmit();
+        match self.ior {
+            PrincipledIor::Eta(t) => {
+                let e = t.eval_1(m, si).max(1e-3);
+                if transmits && e == 1.0 {
+                    1.001
+                } else {
+                    e
+                }
+            }
+            PrincipledIor::Specular(t) => {
+                let mut s = t.eval_1(m, si).clamp(0.0, MAX_SPECULAR);
+                if transmits && s == 0.0 {
+                    s = 1e-3;
+                }
+                2.0 / (1.0 - (0.08 * s).sqrt()) - 1.0
+            }
+        }
     }
 
     /// Everything the three methods need at `si`.
@@ -191,6 +201,7 @@ impl Principled {
             0.0
         };
         Point {
+            eta: self.eta_at(m, si),
             dist: ggx(v.roughness, v.anisotropic),
             opaque: (1.0 - metallic) * (1.0 - v.spec_trans),
             glass: (1.0 - metallic) * v.spec_trans,
@@ -230,8 +241,8 @@ impl Principled {
     /// The half vector of (wo, wi), pointing out of the surface, and the
     /// relative index along the path (η seen from wo's side).
     #[inline]
-    fn half_vector(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        let eta_path = if wo.z > 0.0 { self.eta } else { 1.0 / self.eta };
+    fn half_vector(eta: f32, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let eta_path = if wo.z > 0.0 { eta } else { 1.0 / eta };
         let reflect = wo.z * wi.z > 0.0;
         let h = (wo + wi * if reflect { 1.0 } else { eta_path }).normalize();
         (if h.z < 0.0 { -h } else { h }, eta_path)
@@ -246,16 +257,12 @@ impl Principled {
         let v = &p.v;
         let mut fr = Rgb::splat((1.0 - p.metallic) * (1.0 - v.spec_tint) * f);
         if p.metallic > 0.0 {
-            fr += p.metallic * schlick_fresnel(v.base_color, cos_oh, self.eta);
+            fr += p.metallic * schlick_fresnel(v.base_color, cos_oh, p.eta);
         }
         if v.spec_tint > 0.0 {
-            let eta_it = if cos_oh >= 0.0 {
-                self.eta
-            } else {
-                1.0 / self.eta
-            };
+            let eta_it = if cos_oh >= 0.0 { p.eta } else { 1.0 / p.eta };
             let r0 = tint_color(v.base_color) * schlick_r0(eta_it);
-            fr += (1.0 - p.metallic) * v.spec_tint * schlick_fresnel(r0, cos_oh, self.eta);
+            fr += (1.0 - p.metallic) * v.spec_tint * schlick_fresnel(r0, cos_oh, p.eta);
         }
         fr
     }
@@ -264,6 +271,8 @@ impl Principled {
 /// A [`Principled`] evaluated at one surface point.
 struct Point {
     v: DisneyValues,
+    /// Relative index of refraction.
+    eta: f32,
     dist: Microfacet,
     /// (1 − metallic)(1 − spec_trans): weight of the diffuse and sheen.
     opaque: f32,
@@ -273,6 +282,18 @@ struct Point {
     clearcoat: f32,
     coat: Gtr1,
 }
+
+/// How the principled BSDF's dielectric index is given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PrincipledIor {
+    /// `eta`: the relative index itself.
+    Eta(Tex),
+    /// `specular`: the reflectance at normal incidence is 0.08 `specular`.
+    Specular(Tex),
+}
+
+/// Largest `specular` read: R0 = 0.08 × 12.4 < 1 keeps η finite.
+const MAX_SPECULAR: f32 = 12.4;
 
 /// The clearcoat's fixed Smith masking: GGX with α = 0.25.
 const COAT_MASKING: Microfacet = Microfacet {
@@ -311,7 +332,7 @@ impl BsdfModel for Principled {
         }
         let up = if front { wo } else { -wo };
         let (h, _) = p.dist.sample(up, u2);
-        let (f, cos_t, eta_it, eta_ti) = fresnel_dielectric(wo.dot(h), self.eta);
+        let (f, cos_t, eta_it, eta_ti) = fresnel_dielectric(wo.dot(h), p.eta);
         let [pd, pc, pr, _] = self.lobe_probabilities(&p, front, f);
         // A facet lobe's direction must leave on the side its lobe scatters
         // to, through the facet's proper side (else the lobe missed, and
@@ -387,9 +408,9 @@ impl Principled {
         }
         let front = co > 0.0;
         let reflect = co * ci > 0.0;
-        let (h, eta_path) = self.half_vector(wo, wi);
+        let (h, eta_path) = Self::half_vector(p.eta, wo, wi);
         let (oh, ih) = (wo.dot(h), wi.dot(h));
-        let (f, ..) = fresnel_dielectric(oh, self.eta);
+        let (f, ..) = fresnel_dielectric(oh, p.eta);
         let mut value = Rgb::ZERO;
         let specular_d_g = || p.dist.d(h) * p.dist.g(wo, wi, h);
         if reflect && facet_agrees(h, wo, wi, true) {
@@ -398,7 +419,7 @@ impl Principled {
                 value += fr * (specular_d_g() / (4.0 * co.abs()));
             }
             if front && p.clearcoat > 0.0 {
-                let fc = schlick_fresnel(Rgb::splat(0.04), oh, self.eta).x;
+                let fc = schlick_fresnel(Rgb::splat(0.04), oh, p.eta).x;
                 let dc = p.coat.d(h) * COAT_MASKING.g(wo, wi, h);
                 value += Rgb::splat(0.25 * p.clearcoat * fc * dc * ci.abs());
             }
@@ -427,9 +448,9 @@ impl Principled {
             return 0.0;
         }
         let reflect = co * ci > 0.0;
-        let (h, eta_path) = self.half_vector(wo, wi);
+        let (h, eta_path) = Self::half_vector(p.eta, wo, wi);
         let (oh, ih) = (wo.dot(h), wi.dot(h));
-        let (f, ..) = fresnel_dielectric(oh, self.eta);
+        let (f, ..) = fresnel_dielectric(oh, p.eta);
         let [pd, pc, pr, pt] = self.lobe_probabilities(p, front, f);
         let up = if front { wo } else { -wo };
         let mut pdf = 0.0;
@@ -536,7 +557,7 @@ pub(crate) mod tests {
                     b.common.spec_trans = Tex::value(0.5);
                     b.common.anisotropic = Tex::value(0.5);
                     b.common.roughness = Tex::value(0.6);
-                    b.eta = 1.33;
+                    b.ior = PrincipledIor::Eta(Tex::value(1.33));
                 }),
             ),
             textured,
@@ -571,6 +592,48 @@ pub(crate) mod tests {
             let wo = Vec3::new((1.0 - z * z).sqrt(), 0.0, z);
             let a = albedo(&t, 0, wo);
             assert!(a.max_element() <= 1.0, "albedo {a} at cos {z}");
+        }
+    }
+
+    /// A textured `specular` (a yubin extension) gives on each square of a
+    /// checkerboard what the constant of that square gives, and `eta`
+    /// equals the `specular` it corresponds to.
+    #[test]
+    fn textured_specular_and_eta_match_constants() {
+        let checker = crate::texture::Texture::Checkerboard(crate::texture::Checkerboard {
+            color0: Tex::value(0.2),
+            color1: Tex::value(0.9),
+            to_uv: glam::Affine2::IDENTITY,
+        });
+        let with = |ior| {
+            let mut m = Materials::with_bsdfs(vec![Bsdf::Principled(Principled {
+                ior,
+                ..Principled::new(Rgb::new(0.5, 0.4, 0.3))
+            })]);
+            m.textures.push(checker);
+            m
+        };
+        let eta_of = |s: f32| 2.0 / (1.0 - (0.08 * s).sqrt()) - 1.0;
+        let textured = with(PrincipledIor::Specular(Tex::Texture(0)));
+        let ctx = BsdfContext::default();
+        let (wo, wi) = (
+            Vec3::new(0.3, 0.1, 0.9).normalize(),
+            Vec3::new(-0.4, 0.0, 0.8).normalize(),
+        );
+        for (u, s) in [(0.25, 0.2), (0.75, 0.9)] {
+            let si = SurfaceInteraction {
+                uv: Vec2::new(u, 0.25),
+                ..flat_si()
+            };
+            let got = textured.bsdfs[0].eval(&textured, &ctx, &si, wo, wi);
+            for ior in [
+                PrincipledIor::Specular(Tex::value(s)),
+                PrincipledIor::Eta(Tex::value(eta_of(s))),
+            ] {
+                let c = with(ior);
+                let want = c.bsdfs[0].eval(&c, &ctx, &si, wo, wi);
+                assert!((got - want).abs().max_element() < 1e-5, "{got} vs {want}");
+            }
         }
     }
 
