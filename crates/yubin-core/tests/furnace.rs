@@ -6,7 +6,7 @@
 //! path depth and an albedo-ρ sphere renders exactly ρ.
 
 use glam::{Affine3A, Vec3};
-use yubin_core::bsdf::{Bsdf, Diffuse};
+use yubin_core::bsdf::{Bsdf, DiffTrans, Diffuse, PrincipledThin};
 use yubin_core::camera::{Camera, FovAxis, Perspective};
 use yubin_core::film::Film;
 use yubin_core::filter::Filter;
@@ -15,13 +15,19 @@ use yubin_core::light::{ConstantLight, Emitter};
 use yubin_core::render::{render, RenderSettings};
 use yubin_core::sampler::{Independent, Sampler};
 use yubin_core::shape::{Shape, Sphere};
+use yubin_core::texture::Tex;
 use yubin_core::{Rgb, Scene, SceneBuilder};
 
 const RES: u32 = 16;
 
 fn furnace(albedo: f32) -> Scene {
+    furnace_with(Bsdf::Diffuse(Diffuse::new(Rgb::splat(albedo))))
+}
+
+/// A unit sphere of `bsdf` inside a white environment, seen by a camera.
+fn furnace_with(bsdf: Bsdf) -> Scene {
     let mut b = SceneBuilder::new();
-    let bsdf = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(albedo))));
+    let bsdf = b.add_bsdf(bsdf);
     b.add_shape(
         Shape::Sphere(Sphere::new(Vec3::ZERO, 1.0, false)),
         Some(bsdf),
@@ -130,4 +136,34 @@ fn furnace_can_fail() {
     );
     let mean = px.iter().copied().sum::<Rgb>() / px.len() as f32;
     assert!(mean.x > 1.02, "{mean}");
+}
+
+/// Lossless BSDFs that transmit, too, vanish in a white furnace: light
+/// crosses the sphere any number of times and still comes out whole.
+#[test]
+fn transmitting_lossless_bsdfs_vanish_in_a_white_furnace() {
+    let cases = [
+        ("difftrans 1", Bsdf::DiffTrans(DiffTrans::new(Rgb::ONE))),
+        (
+            "principledthin, diff_trans 2, white",
+            Bsdf::PrincipledThin(PrincipledThin {
+                diff_trans: Tex::value(2.0),
+                ..PrincipledThin::new(Rgb::ONE)
+            }),
+        ),
+    ];
+    let path = PathIntegrator {
+        max_depth: 256,
+        rr_depth: 1000,
+        ..Default::default()
+    };
+    for (what, bsdf) in cases {
+        assert_uniform(
+            &pixels(&furnace_with(bsdf), &path, 256),
+            1.0,
+            0.005,
+            0.08,
+            what,
+        );
+    }
 }
