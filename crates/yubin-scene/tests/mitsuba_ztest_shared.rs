@@ -158,3 +158,21 @@ fn ztest_bsdf_spheres_envmap_path_shared() {
         "bsdf_spheres/refs/test_envmap_ref_rgb",
     );
 }
+
+#[test]
+fn ztest_spot_light_direct_shared() {
+    z_test_scene(
+        "ztest_spot_light_direct_shared",
+        "spot_light/test_spot_direct.xml",
+        "spot_light/refs/test_spot_ref_rgb",
+    );
+}
+
+#[test]
+fn ztest_infinite_mirrors_path_shared() {
+    z_test_scene(
+        "ztest_infinite_mirrors_path_shared",
+        "infinite_mirrors/scene_path.xml",
+        "infinite_mirrors/refs/scene_ref_rgb",
+    );
+}

@@ -31,10 +31,8 @@
 //! shape: meshes pick triangles by area with an alias table, spheres
 //! sample the cone they subtend, other shapes sample uniformly by area.
 
-use super::{EmitterContext, EmitterModel, EmitterSample};
-use crate::interaction::SurfaceInteraction;
-use crate::math::Ray;
-use crate::shape::{make_interaction, ShapeModel};
+use super::{uv_interaction, EmitterContext, EmitterModel, EmitterSample};
+use crate::shape::ShapeModel;
 use crate::texture::Tex;
 use glam::{Vec2, Vec3};
 
@@ -45,13 +43,6 @@ pub struct AreaLight {
     pub shape: u32,
     /// Emitted radiance.
     pub radiance: Tex,
-}
-
-/// What a texture needs of a point light sampling picked: position,
-/// normal and uv (no triangle, so no mesh attributes).
-fn sampled_point(p: Vec3, n: Vec3, uv: Vec2) -> SurfaceInteraction {
-    // As if hit from straight in front, at distance 0.
-    make_interaction(&Ray::new(p + n, -n), 0.0, p, n, uv, Vec3::ZERO, Vec3::ZERO)
 }
 
 impl EmitterModel for AreaLight {
@@ -79,7 +70,7 @@ impl EmitterModel for AreaLight {
             pdf: s.pdf,
             radiance: match self.radiance {
                 Tex::Const(c) => c,
-                tex => tex.eval(ctx.materials, &sampled_point(s.p, s.n, s.uv)),
+                tex => tex.eval(ctx.materials, &uv_interaction(s.p, s.n, s.uv)),
             },
             is_delta: false,
         })
@@ -98,7 +89,7 @@ impl EmitterModel for AreaLight {
 mod tests {
     use super::*;
     use crate::light::Emitter;
-    use crate::math::Transform;
+    use crate::math::{Ray, Transform};
     use crate::shape::{Rectangle, Shape};
     use crate::testing::chi2::{chi2_directions, Chi2Config};
     use crate::Rgb;

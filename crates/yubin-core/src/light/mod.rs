@@ -19,12 +19,14 @@ mod constant;
 mod directional;
 mod envmap;
 mod point;
+mod spot;
 
 pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
 pub use envmap::EnvMapLight;
 pub use point::PointLight;
+pub use spot::SpotLight;
 
 use crate::interaction::SurfaceInteraction;
 use crate::params::{ParamError, Params};
@@ -102,6 +104,8 @@ pub enum Emitter {
     Constant(ConstantLight),
     /// `envmap`.
     EnvMap(EnvMapLight),
+    /// `spot`.
+    Spot(SpotLight),
 }
 
 /// Builds an emitter plugin from its parameters.
@@ -120,7 +124,23 @@ pub const PLUGINS: &[(&str, EmitterFromParams)] = &[
     ("envmap", |p| {
         Ok(Emitter::EnvMap(EnvMapLight::from_params(p)?))
     }),
+    ("spot", |p| Ok(Emitter::Spot(SpotLight::from_params(p)?))),
 ];
+
+/// What a texture needs of a point an emitter looks up: position, normal
+/// and uv (no triangle, so no mesh attributes).
+pub(crate) fn uv_interaction(p: Vec3, n: Vec3, uv: Vec2) -> SurfaceInteraction {
+    // As if hit from straight in front, at distance 0.
+    crate::shape::make_interaction(
+        &crate::math::Ray::new(p + n, -n),
+        0.0,
+        p,
+        n,
+        uv,
+        Vec3::ZERO,
+        Vec3::ZERO,
+    )
+}
 
 /// Builds the sampling distributions that emitters keep in the scene
 /// (`Scene::light_distributions`) and points each emitter at its own;
@@ -149,6 +169,7 @@ macro_rules! dispatch {
             Emitter::Directional($l) => $e,
             Emitter::Constant($l) => $e,
             Emitter::EnvMap($l) => $e,
+            Emitter::Spot($l) => $e,
         }
     };
 }
