@@ -13,7 +13,9 @@ use crate::bsdf::{Bsdf, BsdfModel, Diffuse};
 use crate::camera::{Camera, FovAxis, Perspective};
 use crate::film::Film;
 use crate::interaction::SurfaceInteraction;
-use crate::light::{AreaLight, Emitter, EmitterContext};
+use crate::light::{
+    AreaLight, Emitter, EmitterContext, EmitterOptions, LightChoice, LightSampler, LightSelection,
+};
 use crate::material::Materials;
 use crate::math::{Bounds3, Frame, Ray, Transform};
 use crate::sampler::Sampler;
@@ -167,6 +169,10 @@ pub struct Scene {
     pub materials: Materials,
     /// Emitters.
     pub emitters: Vec<Emitter>,
+    /// Per emitter: visibility and sampling weight.
+    pub emitter_options: Vec<EmitterOptions>,
+    /// Chooses emitters for next-event estimation.
+    pub light_sampler: LightSampler,
     /// Indices of emitters at infinity (hit by escaping rays).
     pub environment_emitters: Vec<u32>,
     /// Sampling distributions that emitters refer to by index (one per
@@ -446,25 +452,30 @@ impl Scene {
             .map(|e| &self.emitters[e as usize])
     }
 
-    /// Picks an emitter uniformly; returns it and its selection probability.
+    /// Chooses a light for next-event estimation at `p` (surface normal
+    /// `n`, or zero); returns it and its probability.
     #[inline]
-    pub fn pick_emitter(&self, u: f32) -> Option<(&Emitter, f32)> {
-        let n = self.emitters.len();
-        if n == 0 {
-            return None;
-        }
-        let i = ((u * n as f32) as usize).min(n - 1);
-        Some((&self.emitters[i], 1.0 / n as f32))
+    pub fn pick_light(&self, u: f32, p: glam::Vec3, n: glam::Vec3) -> Option<(LightChoice, f32)> {
+        self.light_sampler.sample(u, p, n)
     }
 
-    /// Probability that [`Scene::pick_emitter`] picks any given emitter.
+    /// Probability that [`Scene::pick_light`] at (`p`, `n`) chooses `light`.
     #[inline]
-    pub fn emitter_pick_pdf(&self) -> f32 {
-        if self.emitters.is_empty() {
-            0.0
+    pub fn light_pmf(&self, light: LightChoice, p: glam::Vec3, n: glam::Vec3) -> f32 {
+        self.light_sampler.pmf(light, p, n)
+    }
+
+    /// The light a hit on an emitting surface is, as the light sampler
+    /// counts lights (the triangle, when it chooses them one by one).
+    #[inline]
+    pub fn light_of_hit(&self, si: &SurfaceInteraction) -> Option<LightChoice> {
+        let emitter = self.shape_info[si.shape as usize].emitter?;
+        let prim = if self.light_sampler.splits(emitter) {
+            si.prim
         } else {
-            1.0 / self.emitters.len() as f32
-        }
+            LightChoice::WHOLE
+        };
+        Some(LightChoice { emitter, prim })
     }
 }
 
@@ -578,6 +589,8 @@ pub struct SceneBuilder {
     shape_info: Vec<ShapeInfo>,
     materials: Materials,
     emitters: Vec<Emitter>,
+    emitter_options: Vec<EmitterOptions>,
+    light_selection: LightSelection,
     groups: Vec<Vec<Item>>,
     instances: Vec<Instance>,
     camera: Option<Camera>,
@@ -601,6 +614,8 @@ impl SceneBuilder {
             shape_info: Vec::new(),
             materials: Materials::default(),
             emitters: Vec::new(),
+            emitter_options: Vec::new(),
+            light_selection: LightSelection::default(),
             groups: vec![Vec::new()],
             instances: Vec::new(),
             camera: None,
@@ -733,11 +748,10 @@ impl SceneBuilder {
             if let Shape::Mesh(m) = shape {
                 self.meshes[m.mesh as usize].prepare_area_sampling();
             }
-            self.emitters.push(Emitter::Area(AreaLight {
+            self.add_emitter(Emitter::Area(AreaLight {
                 shape: id,
                 radiance,
-            }));
-            self.emitters.len() as u32 - 1
+            }))
         });
         let prims = shape.prim_count(&self.meshes);
         self.shapes.push(shape);
@@ -771,7 +785,26 @@ impl SceneBuilder {
     /// by the time the scene is built, which makes its sampling distribution.
     pub fn add_emitter(&mut self, e: Emitter) -> u32 {
         self.emitters.push(e);
+        self.emitter_options.push(EmitterOptions::default());
         self.emitters.len() as u32 - 1
+    }
+
+    /// Sets the visibility and sampling weight of emitter `emitter`.
+    pub fn set_emitter_options(&mut self, emitter: u32, options: EmitterOptions) {
+        if let Some(o) = self.emitter_options.get_mut(emitter as usize) {
+            *o = options;
+        }
+    }
+
+    /// The emitter of shape `shape`, if it is an area light.
+    pub fn emitter_of_shape(&self, shape: u32) -> Option<u32> {
+        self.shape_info.get(shape as usize)?.emitter
+    }
+
+    /// How next-event estimation will choose emitters.
+    pub fn light_selection(&mut self, selection: LightSelection) -> &mut Self {
+        self.light_selection = selection;
+        self
     }
 
     /// Sets the camera.
@@ -925,6 +958,25 @@ impl SceneBuilder {
             b.flags(&self.materials)
                 .intersects(crate::bsdf::BsdfFlags::NULL)
         });
+        let bounds = groups.first().map_or(Bounds3::EMPTY, |g| g.bvh.bounds());
+        let radius = if bounds.is_empty() {
+            1.0
+        } else {
+            0.5 * bounds.extent().length()
+        };
+        let light_sampler = LightSampler::new(
+            self.light_selection,
+            &self.emitters,
+            &self.emitter_options,
+            &EmitterContext {
+                shapes: &self.shapes,
+                meshes: &self.meshes,
+                images: &self.materials.images,
+                materials: &self.materials,
+                distributions: &light_distributions,
+            },
+            radius,
+        );
         Ok(Scene {
             meshes: self.meshes,
             shapes: self.shapes,
@@ -932,6 +984,8 @@ impl SceneBuilder {
             has_pass_through,
             materials: self.materials,
             emitters: self.emitters,
+            emitter_options: self.emitter_options,
+            light_sampler,
             environment_emitters,
             light_distributions,
             camera,

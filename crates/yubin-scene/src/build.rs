@@ -27,6 +27,7 @@ use std::rc::Rc;
 use yubin_core::bsdf::Bsdf;
 use yubin_core::camera::Sensor;
 use yubin_core::integrator::{Integrator, PathIntegrator};
+use yubin_core::light::EmitterOptions;
 use yubin_core::math::Transform;
 use yubin_core::params::{ColorKind, ParamError, Params};
 use yubin_core::shape::{BuiltShape, MeshShape, Shape, TriangleMesh};
@@ -111,6 +112,9 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         }
     }
     root.check_unused_tree()?;
+    if let Some(selection) = integrator.light_selection() {
+        b.sb.light_selection(selection);
+    }
     let scene =
         b.sb.build()
             .map_err(|e| SceneError::at(&root.loc, e.to_string()))?;
@@ -314,7 +318,7 @@ impl Builder<'_> {
         }
     }
 
-    fn area_radiance(&mut self, obj: &Object) -> Result<Option<Tex>, SceneError> {
+    fn area_radiance(&mut self, obj: &Object) -> Result<Option<(Tex, EmitterOptions)>, SceneError> {
         let Some(c) = obj.single_child(Category::Emitter)? else {
             return Ok(None);
         };
@@ -328,6 +332,7 @@ impl Builder<'_> {
         let e = e.clone();
         let mut p = ObjParams { obj: &e, b: self };
         let radiance = p.texture_or("radiance", ColorKind::Illuminant, Rgb::ONE)?;
+        let options = EmitterOptions::from_params(&mut p)?;
         let reads_attributes = match radiance {
             Tex::Texture(t) => self.texture_reads.get(&t).is_some_and(|r| !r.is_empty()),
             Tex::Const(_) => false,
@@ -339,7 +344,7 @@ impl Builder<'_> {
                  (light samples carry no triangle attributes)",
             ));
         }
-        Ok(Some(radiance))
+        Ok(Some((radiance, options)))
     }
 
     /// Builds a shape into group `group` (0: the world).
@@ -388,10 +393,14 @@ impl Builder<'_> {
         if let Some(b) = bsdf {
             self.check_attributes(obj, &shape, b)?;
         }
-        let radiance = self.area_radiance(obj)?;
-        self.sb
-            .add_shape_to(group, shape, bsdf, radiance)
+        let emission = self.area_radiance(obj)?;
+        let id = self
+            .sb
+            .add_shape_to(group, shape, bsdf, emission.map(|(radiance, _)| radiance))
             .map_err(|e| obj.error(e.to_string()))?;
+        if let (Some((_, options)), Some(e)) = (emission, self.sb.emitter_of_shape(id)) {
+            self.sb.set_emitter_options(e, options);
+        }
         Ok(())
     }
 
@@ -466,8 +475,11 @@ impl Builder<'_> {
             let known: Vec<&str> = yubin_core::light::PLUGINS.iter().map(|(n, _)| *n).collect();
             unknown_type(obj, &format!("area, {}", known.join(", ")))
         })?;
-        let e = build(&mut ObjParams { obj, b: self })?;
-        self.sb.add_emitter(e);
+        let mut p = ObjParams { obj, b: self };
+        let options = EmitterOptions::from_params(&mut p)?;
+        let e = build(&mut p)?;
+        let index = self.sb.add_emitter(e);
+        self.sb.set_emitter_options(index, options);
         Ok(())
     }
 }

@@ -13,8 +13,9 @@
 //! <integrator type="direct"><integer name="emitter_samples" value="4"/></integrator>
 //! ```
 
-use super::{environment_radiance, sample_light, surface_emission, Integrator};
+use super::{environment_radiance, sample_light, surface_emission, Integrator, RayOrigin};
 use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel};
+use crate::light::LightSelection;
 use crate::math::Ray;
 use crate::params::{ParamError, Params};
 use crate::sampler::SampleStream;
@@ -29,6 +30,8 @@ pub struct DirectIntegrator {
     pub bsdf_samples: u32,
     /// Hide directly visible emitters.
     pub hide_emitters: bool,
+    /// How emitters are chosen for light sampling (`None`: the default).
+    pub light_selection: Option<LightSelection>,
 }
 
 impl DirectIntegrator {
@@ -40,6 +43,7 @@ impl DirectIntegrator {
             emitter_samples: p.integer_or("emitter_samples", shading)?.max(0) as u32,
             bsdf_samples: p.integer_or("bsdf_samples", shading)?.max(0) as u32,
             hide_emitters: p.boolean_or("hide_emitters", false)?,
+            light_selection: LightSelection::from_params(p)?,
         })
     }
 }
@@ -50,23 +54,28 @@ impl Default for DirectIntegrator {
             emitter_samples: 1,
             bsdf_samples: 1,
             hide_emitters: false,
+            light_selection: None,
         }
     }
 }
 
 impl Integrator for DirectIntegrator {
+    fn light_selection(&self) -> Option<LightSelection> {
+        self.light_selection
+    }
+
     fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         let Some(si) = scene.intersect(ray) else {
             return if self.hide_emitters {
                 Rgb::ZERO
             } else {
-                environment_radiance(scene, ray.o, ray.d.normalize(), None)
+                environment_radiance(scene, &RayOrigin::camera(ray.o), ray.d.normalize())
             };
         };
         let mut l = if self.hide_emitters {
             Rgb::ZERO
         } else {
-            surface_emission(scene, &si, ray.o, None)
+            surface_emission(scene, &si, &RayOrigin::camera(ray.o))
         };
         let bsdf = scene.bsdf_of(si.shape);
         let wo = si.to_local(si.wo);
@@ -89,9 +98,10 @@ impl Integrator for DirectIntegrator {
             // MIS against the light samples, scaled by the count ratio.
             let pdf = (!delta && self.emitter_samples > 0).then_some(bs.pdf * nb / ne.max(1e-9));
             let next = si.spawn_ray(si.to_world(bs.wi));
+            let origin = RayOrigin::surface(&si, pdf);
             let le = match scene.intersect(&next) {
-                Some(hit) => surface_emission(scene, &hit, si.p, pdf),
-                None => environment_radiance(scene, si.p, next.d, pdf),
+                Some(hit) => surface_emission(scene, &hit, &origin),
+                None => environment_radiance(scene, &origin, next.d),
             };
             l += bs.weight * le / nb;
         }

@@ -71,6 +71,12 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
         3 * (1 + self.extra_layer_count())
     }
 
+    /// How the integrator wants emitters chosen for light sampling, if it
+    /// says (`light_sampler`); the scene's default otherwise.
+    fn light_selection(&self) -> Option<crate::light::LightSelection> {
+        None
+    }
+
     /// Radiance arriving along `ray`.
     fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb;
 
@@ -81,58 +87,105 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
     }
 }
 
+/// The vertex a ray left from, as emission and MIS see it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RayOrigin {
+    /// Where the ray was sampled (for the light sampler's probability).
+    pub p: Vec3,
+    /// The surface normal there (zero for the camera).
+    pub n: Vec3,
+    /// Density of the BSDF sample that produced the ray, or `None` when it
+    /// was not BSDF-sampled with a finite density (camera rays, delta
+    /// lobes): then no MIS.
+    pub bsdf_pdf: Option<f32>,
+    /// The ray is a camera ray (emitters with `visible = false` hide).
+    pub camera: bool,
+}
+
+impl RayOrigin {
+    /// A camera ray from `p`.
+    pub fn camera(p: Vec3) -> Self {
+        Self {
+            p,
+            n: Vec3::ZERO,
+            bsdf_pdf: None,
+            camera: true,
+        }
+    }
+
+    /// A ray BSDF-sampled at `si` (density `bsdf_pdf`, `None` for delta).
+    pub fn surface(si: &SurfaceInteraction, bsdf_pdf: Option<f32>) -> Self {
+        Self {
+            p: si.p,
+            n: si.n,
+            bsdf_pdf,
+            camera: false,
+        }
+    }
+
+    /// Whether emitter `e` shows itself to this ray.
+    #[inline]
+    fn sees(&self, scene: &Scene, e: u32) -> bool {
+        let o = &scene.emitter_options[e as usize];
+        if self.camera {
+            o.visible
+        } else {
+            o.visible_indirect
+        }
+    }
+}
+
 /// Radiance from emitters at infinity along an escaped ray `d`, MIS-weighted
-/// against the BSDF sample that produced it (`bsdf_pdf`, or `None` when
-/// the ray was not BSDF-sampled with a finite density).
-pub(crate) fn environment_radiance(
-    scene: &Scene,
-    origin: Vec3,
-    d: Vec3,
-    bsdf_pdf: Option<f32>,
-) -> Rgb {
+/// against the BSDF sample that produced it.
+pub(crate) fn environment_radiance(scene: &Scene, origin: &RayOrigin, d: Vec3) -> Rgb {
+    use crate::light::{EmitterModel, LightChoice};
     let ctx = scene.emitter_context();
-    scene
-        .environment_emitters
-        .iter()
-        .map(|&e| {
-            let emitter = &scene.emitters[e as usize];
-            let le = emitter.environment_radiance(&ctx, d);
-            match bsdf_pdf {
-                None => le,
-                Some(pdf) => {
-                    use crate::light::EmitterModel;
-                    let light_pdf = scene.emitter_pick_pdf()
-                        * emitter.pdf_direction(&ctx, origin, origin + d, -d, d);
-                    le * power_heuristic(pdf, light_pdf)
-                }
+    let mut l = Rgb::ZERO;
+    for &e in &scene.environment_emitters {
+        if !origin.sees(scene, e) {
+            continue;
+        }
+        let emitter = &scene.emitters[e as usize];
+        let le = emitter.environment_radiance(&ctx, d);
+        l += match origin.bsdf_pdf {
+            None => le,
+            Some(pdf) => {
+                let choice = LightChoice {
+                    emitter: e,
+                    prim: LightChoice::WHOLE,
+                };
+                let light_pdf = scene.light_pmf(choice, origin.p, origin.n)
+                    * emitter.pdf_direction(&ctx, origin.p, origin.p + d, -d, d);
+                le * power_heuristic(pdf, light_pdf)
             }
-        })
-        .sum()
+        };
+    }
+    l
 }
 
 /// Radiance emitted by the surface at `si` towards the ray's origin,
 /// MIS-weighted as in [`environment_radiance`].
-pub(crate) fn surface_emission(
-    scene: &Scene,
-    si: &SurfaceInteraction,
-    origin: Vec3,
-    bsdf_pdf: Option<f32>,
-) -> Rgb {
-    use crate::light::EmitterModel;
-    let Some(emitter) = scene.emitter_of(si.shape) else {
+pub(crate) fn surface_emission(scene: &Scene, si: &SurfaceInteraction, origin: &RayOrigin) -> Rgb {
+    use crate::light::{Emitter, EmitterModel, LightChoice};
+    let Some(light) = scene.light_of_hit(si) else {
         return Rgb::ZERO;
     };
+    if !origin.sees(scene, light.emitter) {
+        return Rgb::ZERO;
+    }
+    let emitter = &scene.emitters[light.emitter as usize];
     let le = emitter.surface_radiance(&scene.materials, si);
-    match bsdf_pdf {
+    match origin.bsdf_pdf {
         Some(pdf) if le != Rgb::ZERO => {
-            let light_pdf = scene.emitter_pick_pdf()
-                * emitter.pdf_direction(
-                    &scene.emitter_context(),
-                    origin,
-                    si.p,
-                    si.sh_frame.n,
-                    -si.wo,
-                );
+            let ctx = scene.emitter_context();
+            let n = si.sh_frame.n;
+            let pdf_direction = match emitter {
+                Emitter::Area(a) if light.prim != LightChoice::WHOLE => {
+                    a.pdf_triangle_direction(&ctx, light.prim, origin.p, si.p, n)
+                }
+                _ => emitter.pdf_direction(&ctx, origin.p, si.p, n, -si.wo),
+            };
+            let light_pdf = scene.light_pmf(light, origin.p, origin.n) * pdf_direction;
             le * power_heuristic(pdf, light_pdf)
         }
         _ => le,
@@ -154,18 +207,26 @@ pub(crate) fn sample_light(
     max_crossings: u32,
 ) -> Rgb {
     use crate::bsdf::{BsdfContext, BsdfModel};
-    use crate::light::EmitterModel;
+    use crate::light::{Emitter, EmitterModel, LightChoice};
     let u_pick = sampler.next_1d();
     let u = sampler.next_2d();
-    let Some((emitter, pick_pdf)) = scene.pick_emitter(u_pick) else {
+    let Some((light, pick_pdf)) = scene.pick_light(u_pick, si.p, si.n) else {
         return Rgb::ZERO;
     };
-    let Some(ls) = emitter.sample_direction(&scene.emitter_context(), si.p, u) else {
+    let ctx = scene.emitter_context();
+    let emitter = &scene.emitters[light.emitter as usize];
+    let sample = match emitter {
+        Emitter::Area(a) if light.prim != LightChoice::WHOLE => {
+            a.sample_triangle_direction(&ctx, light.prim, si.p, u)
+        }
+        _ => emitter.sample_direction(&ctx, si.p, u),
+    };
+    let Some(ls) = sample else {
         return Rgb::ZERO;
     };
-    let ctx = BsdfContext::default();
+    let bsdf_ctx = BsdfContext::default();
     let wi_local = si.to_local(ls.wi);
-    let f = bsdf.eval(&scene.materials, &ctx, si, wo_local, wi_local);
+    let f = bsdf.eval(&scene.materials, &bsdf_ctx, si, wo_local, wi_local);
     if f == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -179,10 +240,12 @@ pub(crate) fn sample_light(
         return Rgb::ZERO;
     }
     let light_pdf = ls.pdf * pick_pdf;
-    let w = if ls.is_delta {
+    // Lights hidden from indirect rays cannot be found by BSDF sampling:
+    // light sampling is then their only strategy.
+    let w = if ls.is_delta || !scene.emitter_options[light.emitter as usize].visible_indirect {
         1.0
     } else {
-        let bsdf_pdf = bsdf.pdf(&scene.materials, &ctx, si, wo_local, wi_local);
+        let bsdf_pdf = bsdf.pdf(&scene.materials, &bsdf_ctx, si, wo_local, wi_local);
         power_heuristic(light_pdf * light_count_ratio, bsdf_pdf)
     };
     f * ls.radiance * (tr * w / light_pdf)

@@ -49,6 +49,10 @@ impl Integrator for MomentIntegrator {
         self.nested.extra_layer_count() + 1
     }
 
+    fn light_selection(&self) -> Option<crate::light::LightSelection> {
+        self.nested.light_selection()
+    }
+
     fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         self.nested.li(scene, ray, sampler)
     }

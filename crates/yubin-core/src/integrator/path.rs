@@ -17,8 +17,9 @@
 //! throughput and η the accumulated relative index of refraction.
 
 use super::max_depth_param;
-use super::{environment_radiance, sample_light, surface_emission, Integrator};
+use super::{environment_radiance, sample_light, surface_emission, Integrator, RayOrigin};
 use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel};
+use crate::light::LightSelection;
 use crate::math::Ray;
 use crate::params::{ParamError, Params};
 use crate::sampler::SampleStream;
@@ -33,6 +34,8 @@ pub struct PathIntegrator {
     pub rr_depth: u32,
     /// Hide directly visible emitters.
     pub hide_emitters: bool,
+    /// How emitters are chosen for light sampling (`None`: the default).
+    pub light_selection: Option<LightSelection>,
 }
 
 impl PathIntegrator {
@@ -42,6 +45,7 @@ impl PathIntegrator {
             max_depth: max_depth_param(p)?,
             rr_depth: p.integer_or("rr_depth", 5)?.clamp(0, u32::MAX as i64) as u32,
             hide_emitters: p.boolean_or("hide_emitters", false)?,
+            light_selection: LightSelection::from_params(p)?,
         })
     }
 }
@@ -52,33 +56,36 @@ impl Default for PathIntegrator {
             max_depth: -1,
             rr_depth: 5,
             hide_emitters: false,
+            light_selection: None,
         }
     }
 }
 
 impl Integrator for PathIntegrator {
+    fn light_selection(&self) -> Option<LightSelection> {
+        self.light_selection
+    }
+
     fn li(&self, scene: &Scene, camera_ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         let ctx = BsdfContext::default();
         let (mut l, mut beta, mut eta2) = (Rgb::ZERO, Rgb::ONE, 1.0f32);
         let mut ray = *camera_ray;
-        // Density of the BSDF sample that produced `ray`; None for camera
-        // rays and delta lobes (no MIS: the light could not sample them).
-        // Crossing a pass-through surface keeps it, with `mis_origin`, the
-        // vertex that sampled it: that vertex's light samples reach the same
-        // emitters through the same surfaces.
-        let mut prev_pdf: Option<f32> = None;
-        let mut mis_origin = ray.o;
+        // The vertex that BSDF-sampled `ray`, with the density (None for
+        // camera rays and delta lobes: no MIS, the light could not sample
+        // them). Crossing a pass-through surface keeps it: that vertex's
+        // light samples reach the same emitters through the same surfaces.
+        let mut origin = RayOrigin::camera(ray.o);
         // Number of segments traced so far minus one (0 at the first hit).
         let mut depth: u32 = 0;
         loop {
             let Some(si) = scene.intersect(&ray) else {
                 if !(depth == 0 && self.hide_emitters) {
-                    l += beta * environment_radiance(scene, ray.o, ray.d.normalize(), prev_pdf);
+                    l += beta * environment_radiance(scene, &origin, ray.d.normalize());
                 }
                 break;
             };
             if !(depth == 0 && self.hide_emitters) {
-                l += beta * surface_emission(scene, &si, mis_origin, prev_pdf);
+                l += beta * surface_emission(scene, &si, &origin);
             }
             if self.max_depth >= 0 && depth + 1 >= self.max_depth as u32 {
                 break;
@@ -104,8 +111,8 @@ impl Integrator for PathIntegrator {
             beta *= bs.weight;
             eta2 *= bs.eta * bs.eta;
             if bs.sampled != BsdfFlags::NULL {
-                prev_pdf = (!bs.sampled.intersects(BsdfFlags::DELTA)).then_some(bs.pdf);
-                mis_origin = si.p;
+                let pdf = (!bs.sampled.intersects(BsdfFlags::DELTA)).then_some(bs.pdf);
+                origin = RayOrigin::surface(&si, pdf);
             }
             ray = si.spawn_ray(si.to_world(bs.wi));
             depth += 1;

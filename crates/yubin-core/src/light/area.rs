@@ -32,7 +32,7 @@
 //! sample the cone they subtend, other shapes sample uniformly by area.
 
 use super::{uv_interaction, EmitterContext, EmitterModel, EmitterSample};
-use crate::shape::ShapeModel;
+use crate::shape::{area_to_solid_angle, Shape, ShapeDirectionSample, ShapeModel};
 use crate::texture::Tex;
 use glam::{Vec2, Vec3};
 
@@ -45,15 +45,53 @@ pub struct AreaLight {
     pub radiance: Tex,
 }
 
-impl EmitterModel for AreaLight {
-    fn sample_direction(
+impl AreaLight {
+    /// Samples triangle `prim` of the light's mesh (uniformly by area) from
+    /// `ref_p`: the light BVH's choice of one triangle.
+    pub fn sample_triangle_direction(
         &self,
         ctx: &EmitterContext,
+        prim: u32,
         ref_p: Vec3,
         u: Vec2,
     ) -> Option<EmitterSample> {
-        let shape = &ctx.shapes[self.shape as usize];
-        let s = shape.sample_direction(ctx.meshes, ref_p, u);
+        let Shape::Mesh(m) = ctx.shapes[self.shape as usize] else {
+            return self.sample_direction(ctx, ref_p, u);
+        };
+        let ps = ctx.meshes[m.mesh as usize].sample_triangle(prim as usize, u);
+        let s = ShapeDirectionSample {
+            p: ps.p,
+            n: ps.n,
+            pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
+            uv: ps.uv,
+        };
+        self.emitted_towards(ctx, ref_p, s)
+    }
+
+    /// Density of [`AreaLight::sample_triangle_direction`] for the point
+    /// `p` (normal `n`) on triangle `prim`.
+    pub fn pdf_triangle_direction(
+        &self,
+        ctx: &EmitterContext,
+        prim: u32,
+        ref_p: Vec3,
+        p: Vec3,
+        n: Vec3,
+    ) -> f32 {
+        let Shape::Mesh(m) = ctx.shapes[self.shape as usize] else {
+            return self.pdf_direction(ctx, ref_p, p, n, Vec3::ZERO);
+        };
+        let area = ctx.meshes[m.mesh as usize].triangle_area(prim as usize);
+        area_to_solid_angle(1.0 / area, ref_p, p, n)
+    }
+
+    /// The light sample for the point `s` found on the shape.
+    fn emitted_towards(
+        &self,
+        ctx: &EmitterContext,
+        ref_p: Vec3,
+        s: ShapeDirectionSample,
+    ) -> Option<EmitterSample> {
         let delta = s.p - ref_p;
         let dist = delta.length();
         if s.pdf.is_nan() || s.pdf <= 0.0 || dist == 0.0 || !s.pdf.is_finite() {
@@ -74,6 +112,18 @@ impl EmitterModel for AreaLight {
             },
             is_delta: false,
         })
+    }
+}
+
+impl EmitterModel for AreaLight {
+    fn sample_direction(
+        &self,
+        ctx: &EmitterContext,
+        ref_p: Vec3,
+        u: Vec2,
+    ) -> Option<EmitterSample> {
+        let shape = &ctx.shapes[self.shape as usize];
+        self.emitted_towards(ctx, ref_p, shape.sample_direction(ctx.meshes, ref_p, u))
     }
 
     fn pdf_direction(&self, ctx: &EmitterContext, ref_p: Vec3, p: Vec3, n: Vec3, _wi: Vec3) -> f32 {

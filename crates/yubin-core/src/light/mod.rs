@@ -15,10 +15,12 @@
 //! when the scene is built ([`build_distributions`]).
 
 mod area;
+pub mod bvh;
 mod constant;
 mod directional;
 mod envmap;
 mod point;
+pub mod selection;
 mod spot;
 
 pub use area::AreaLight;
@@ -26,12 +28,14 @@ pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
 pub use envmap::EnvMapLight;
 pub use point::PointLight;
+pub use selection::{EmitterOptions, LightChoice, LightSampler, LightSelection};
 pub use spot::SpotLight;
 
 use crate::interaction::SurfaceInteraction;
 use crate::params::{ParamError, Params};
 use crate::sampling::Distribution2D;
-use crate::shape::{Shape, TriangleMesh};
+use crate::shape::{Shape, ShapeModel, TriangleMesh};
+use crate::spectrum::luminance;
 use crate::texture::TexImage;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
@@ -214,6 +218,42 @@ impl Emitter {
             Emitter::EnvMap(m) => m.radiance(ctx, d),
             _ => Rgb::ZERO,
         }
+    }
+
+    /// Emitted power's luminance, for light selection; lights at infinity
+    /// count what crosses a disk of the scene's bounding radius `radius`
+    /// (pbrt-v4's convention).
+    pub fn power(&self, ctx: &EmitterContext, radius: f32) -> f32 {
+        use std::f32::consts::PI;
+        let disk = PI * radius * radius;
+        match self {
+            Emitter::Area(a) => {
+                let area = ctx.shapes[a.shape as usize].surface_area(ctx.meshes);
+                PI * area * a.radiance.mean(ctx.materials)
+            }
+            Emitter::Point(p) => 4.0 * PI * luminance(p.intensity),
+            Emitter::Spot(s) => s.power(ctx),
+            Emitter::Directional(d) => disk * luminance(d.irradiance),
+            Emitter::Constant(_) | Emitter::EnvMap(_) => disk * self.environment_integral(ctx),
+        }
+    }
+
+    /// ∫ luminance(L(ω)) dω over the sphere of an emitter at infinity, by
+    /// the midpoint rule on an equal-area grid in (cos θ, φ).
+    fn environment_integral(&self, ctx: &EmitterContext) -> f32 {
+        const N_THETA: usize = 64;
+        const N_PHI: usize = 128;
+        let mut sum = 0.0f64;
+        for i in 0..N_THETA {
+            let cos_theta = 1.0 - 2.0 * (i as f32 + 0.5) / N_THETA as f32;
+            let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+            for j in 0..N_PHI {
+                let phi = 2.0 * std::f32::consts::PI * (j as f32 + 0.5) / N_PHI as f32;
+                let d = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
+                sum += luminance(self.environment_radiance(ctx, d)) as f64;
+            }
+        }
+        (sum * 4.0 * std::f64::consts::PI / (N_THETA * N_PHI) as f64) as f32
     }
 
     /// True for lights that surround the scene (hit by escaping rays).

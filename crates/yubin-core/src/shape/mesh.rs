@@ -343,7 +343,8 @@ impl TriangleMesh {
         self.indices[tri].map(|i| self.positions[i as usize])
     }
 
-    fn triangle_area(&self, tri: usize) -> f32 {
+    /// Area of triangle `tri`.
+    pub fn triangle_area(&self, tri: usize) -> f32 {
         let [p0, p1, p2] = self.vertices(tri);
         0.5 * (p1 - p0).cross(p2 - p0).length()
     }
@@ -354,6 +355,37 @@ impl TriangleMesh {
             Some(t) => t.total(),
             None => (0..self.indices.len()).map(|i| self.triangle_area(i)).sum(),
         }
+    }
+
+    /// A point uniformly distributed on triangle `tri` (density 1/area),
+    /// with its shading normal and uv.
+    pub fn sample_triangle(&self, tri: usize, u: Vec2) -> PositionSample {
+        let (p, _, ns, uv, ..) = self.surface_at(tri, square_to_uniform_triangle(u));
+        PositionSample {
+            p,
+            n: ns,
+            pdf: 1.0 / self.triangle_area(tri),
+            uv,
+        }
+    }
+
+    /// The cone of shading normals over triangle `tri`: its axis and the
+    /// cosine of its half-angle (1 for a flat-shaded triangle). Normals
+    /// interpolated between the vertices' stay inside the cone of those.
+    pub fn triangle_normal_cone(&self, tri: usize) -> (Vec3, f32) {
+        let (_, n, ..) = self.surface_at(tri, Vec2::splat(1.0 / 3.0));
+        if self.normals.is_empty() {
+            return (n, 1.0);
+        }
+        let sign = if self.flip_normals { -1.0 } else { 1.0 };
+        let vertex_normals =
+            self.indices[tri].map(|i| sign * self.normals[i as usize].normalize_or_zero());
+        let axis = (vertex_normals[0] + vertex_normals[1] + vertex_normals[2]).normalize_or(n);
+        let cos = vertex_normals
+            .iter()
+            .map(|v| axis.dot(*v))
+            .fold(1.0f32, f32::min);
+        (axis, cos)
     }
 
     /// The three vertices of triangle `tri`.
