@@ -113,7 +113,7 @@ fn render_mean(sheet: Sheet, light: Light, max_depth: i32, spp: u32) -> f32 {
     let integrator = PathIntegrator {
         max_depth,
         rr_depth: 100,
-        hide_emitters: false,
+        ..Default::default()
     };
     let out = render(
         &scene,
