@@ -8,6 +8,7 @@
 //! | `emitter_samples` | integer | shading | light samples per hit                     |
 //! | `bsdf_samples`    | integer | shading | BSDF samples per hit                      |
 //! | `hide_emitters`   | boolean | false   | emitters seen by the camera render black  |
+//! | `light_sampler` | string  | bvh     | how light sampling picks an emitter: `uniform` (Mitsuba's rule, by `sampling_weight`), `power`, `bvh` (yubin) |
 //!
 //! ```xml
 //! <integrator type="direct"><integer name="emitter_samples" value="4"/></integrator>

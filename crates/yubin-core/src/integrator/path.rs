@@ -8,6 +8,7 @@
 //! | `max_depth`     | integer | -1      | longest path in segments (−1: unlimited); 1 = visible emitters only, 2 = direct light |
 //! | `rr_depth`      | integer | 5       | Russian roulette starts once a path has this many segments     |
 //! | `hide_emitters` | boolean | false   | emitters seen directly by the camera render black              |
+//! | `light_sampler` | string  | bvh     | how light sampling picks an emitter: `uniform` (Mitsuba's rule, by `sampling_weight`), `power`, `bvh` (yubin) |
 //!
 //! ```xml
 //! <integrator type="path"><integer name="max_depth" value="8"/></integrator>

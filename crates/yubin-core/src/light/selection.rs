@@ -15,6 +15,27 @@
 //!
 //! Whatever the strategy, the probability of the light a BSDF-sampled ray
 //! happened to hit is available for MIS ([`LightSampler::pmf`]).
+//!
+//! **Parameters of every emitter** (`area` included):
+//!
+//! | parameter          | type    | default | meaning                                                   |
+//! |--------------------|---------|---------|-----------------------------------------------------------|
+//! | `visible`          | boolean | true    | camera rays see the emitter (yubin; per light, where Mitsuba's `hide_emitters` hides all) |
+//! | `visible_indirect` | boolean | true    | rays that left a surface see it (yubin); false: it lights the scene through light sampling only |
+//! | `sampling_weight`  | float   | 1       | Mitsuba's relative probability of being chosen (`uniform` and `power`; the BVH ignores it) |
+//!
+//! ```xml
+//! <emitter type="point">
+//!     <boolean name="visible" value="false"/>
+//!     <float name="sampling_weight" value="2"/>
+//! </emitter>
+//! <integrator type="path"><string name="light_sampler" value="power"/></integrator>
+//! ```
+//!
+//! An invisible light still lights the scene and shows in mirrors unless
+//! `visible_indirect` is false too. Hiding a light from indirect rays
+//! drops its BSDF-sampling strategy, so its light samples get the full MIS
+//! weight and the image stays unbiased.
 
 use super::bvh::LightBvh;
 use super::{Emitter, EmitterContext};
