@@ -2,17 +2,21 @@
 //!
 //! ```text
 //! cargo run --profile dist -p yubin-bench -- cornell [--spp 256] [--scene PATH] [--skip-mitsuba]
+//! cargo run --release -p yubin-bench -- manylights [--spp 16] [--ref-spp 1024]
 //! cargo build --release -p yubin-bench --features embree
 //! ./target/release/yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
 //! ```
 //!
 //! - [`cornell`]: whole renders against Mitsuba 3 (wall time and error).
+//! - [`manylights`]: uniform, power and light-BVH light selection on
+//!   10,000 emissive triangles (equal-time error).
 //! - [`rays`]: ray-traversal throughput, build time and memory of yubin's
 //!   BVH against Intel Embree in the same process, on the meshes and rays
 //!   of `../shared/tools/raybench` (issue 3). Run `setup.sh` first.
 
 mod alloc;
 mod cornell;
+mod manylights;
 mod rays;
 
 use anyhow::{bail, Result};
@@ -24,6 +28,7 @@ static ALLOC: alloc::CountingAlloc = alloc::CountingAlloc;
 
 const USAGE: &str = "usage:
   yubin-bench cornell [--spp N] [--scene PATH] [--skip-mitsuba]
+  yubin-bench manylights [--spp N] [--ref-spp N] [--res N]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
                    [--min-passes N] [--max-passes N] [--out FILE.md]
@@ -39,6 +44,7 @@ fn main() -> Result<()> {
     match args.first().map(String::as_str) {
         Some("cornell") => cornell::run(&args[1..]),
         Some("rays") => rays::run(&args[1..]),
+        Some("manylights") => manylights::run(&args[1..]),
         Some("help") => {
             println!("{USAGE}");
             Ok(())
