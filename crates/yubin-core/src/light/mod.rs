@@ -11,7 +11,8 @@
 //! Emitters at infinity ([`Emitter::is_environment`]) also give the
 //! radiance of rays that escape the scene ([`Emitter::environment_radiance`]).
 //! Scene front ends build emitters through [`PLUGINS`]; an emitter that
-//! needs scene-owned data (an `envmap`'s sampling distribution) gets it
+//! needs scene-owned data (an `envmap`'s or `preetham`'s sampling
+//! distribution) gets it
 //! when the scene is built ([`build_distributions`]).
 
 mod area;
@@ -19,12 +20,14 @@ mod constant;
 mod directional;
 mod envmap;
 mod point;
+mod preetham;
 
 pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
 pub use envmap::EnvMapLight;
 pub use point::PointLight;
+pub use preetham::PreethamLight;
 
 use crate::interaction::SurfaceInteraction;
 use crate::params::{ParamError, Params};
@@ -102,6 +105,8 @@ pub enum Emitter {
     Constant(ConstantLight),
     /// `envmap`.
     EnvMap(EnvMapLight),
+    /// `preetham`.
+    Preetham(PreethamLight),
 }
 
 /// Builds an emitter plugin from its parameters.
@@ -120,6 +125,9 @@ pub const PLUGINS: &[(&str, EmitterFromParams)] = &[
     ("envmap", |p| {
         Ok(Emitter::EnvMap(EnvMapLight::from_params(p)?))
     }),
+    ("preetham", |p| {
+        Ok(Emitter::Preetham(PreethamLight::from_params(p)?))
+    }),
 ];
 
 /// Builds the sampling distributions that emitters keep in the scene
@@ -137,6 +145,10 @@ pub fn build_distributions(
             env.distribution = distributions.len() as u32;
             distributions.push(env.sampling_distribution(image));
         }
+        if let Emitter::Preetham(sky) = e {
+            sky.distribution = distributions.len() as u32;
+            distributions.push(sky.sampling_distribution());
+        }
     }
     Ok(distributions)
 }
@@ -149,6 +161,7 @@ macro_rules! dispatch {
             Emitter::Directional($l) => $e,
             Emitter::Constant($l) => $e,
             Emitter::EnvMap($l) => $e,
+            Emitter::Preetham($l) => $e,
         }
     };
 }
@@ -191,12 +204,16 @@ impl Emitter {
         match self {
             Emitter::Constant(c) => c.radiance,
             Emitter::EnvMap(m) => m.radiance(ctx, d),
+            Emitter::Preetham(s) => s.radiance(d),
             _ => Rgb::ZERO,
         }
     }
 
     /// True for lights that surround the scene (hit by escaping rays).
     pub fn is_environment(&self) -> bool {
-        matches!(self, Emitter::Constant(_) | Emitter::EnvMap(_))
+        matches!(
+            self,
+            Emitter::Constant(_) | Emitter::EnvMap(_) | Emitter::Preetham(_)
+        )
     }
 }
