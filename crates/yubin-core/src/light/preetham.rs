@@ -461,7 +461,7 @@ impl PreethamLight {
         let timezone = ranged(p, "timezone", 9.0, -14.0, 14.0)?;
         let time_of_day = ranged(p, "time_of_day", 15.0, 0.0, 24.0)?;
         let year = p.integer_or("year", 2010)?;
-        let (doy, days) = if let Some(doy) = p.integer("day_of_year")? {
+        let doy = if let Some(doy) = p.integer("day_of_year")? {
             if let Some(other) = ["month", "day"].into_iter().find(|n| p.has(n)) {
                 return Err(p.param_error(other, "cannot be given with \"day_of_year\""));
             }
@@ -471,7 +471,7 @@ impl PreethamLight {
                     p.param_error("day_of_year", &format!("must be in [1, {days}], not {doy}"))
                 );
             }
-            (doy as u32, days)
+            doy as u32
         } else {
             let month = p.integer_or("month", 7)?;
             if !(1..=12).contains(&month) {
@@ -490,7 +490,7 @@ impl PreethamLight {
                     &format!("must be in [1, {length}] for month {month}, not {day}"),
                 ));
             }
-            day_of_year(year, month as u32, day as u32)
+            day_of_year(year, month as u32, day as u32).0
         };
         let (el, az) = solar_position(latitude, longitude, timezone, year, doy, time_of_day);
         Ok(direction_of_elevation_azimuth(el, az))
