@@ -59,9 +59,9 @@ fn preetham_unknown_parameter_is_a_load_error() {
 </scene>"#;
     let dir = std::env::temp_dir().join(format!("yubin-preetham-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let err = load_scene_str(xml, &dir.join("scene.xml"), &[])
-        .err()
-        .expect("an unknown parameter must fail")
-        .to_string();
+    let Err(err) = load_scene_str(xml, &dir.join("scene.xml"), &[]) else {
+        panic!("an unknown parameter must fail");
+    };
+    let err = err.to_string();
     assert!(err.contains("turbidty"), "{err}");
 }
