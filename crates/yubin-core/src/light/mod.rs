@@ -11,7 +11,8 @@
 //! Emitters at infinity ([`Emitter::is_environment`]) also give the
 //! radiance of rays that escape the scene ([`Emitter::environment_radiance`]).
 //! Scene front ends build emitters through [`PLUGINS`]; an emitter that
-//! needs scene-owned data (an `envmap`'s sampling distribution) gets it
+//! needs scene-owned data (an `envmap`'s or `preetham`'s sampling
+//! distribution) gets it
 //! when the scene is built ([`build_distributions`]).
 
 mod area;
@@ -21,6 +22,7 @@ mod directional;
 mod envmap;
 mod point;
 pub mod selection;
+mod preetham;
 mod spot;
 
 pub use area::AreaLight;
@@ -29,6 +31,7 @@ pub use directional::DirectionalLight;
 pub use envmap::EnvMapLight;
 pub use point::PointLight;
 pub use selection::{EmitterOptions, LightChoice, LightSampler, LightSelection};
+pub use preetham::PreethamLight;
 pub use spot::SpotLight;
 
 use crate::interaction::SurfaceInteraction;
@@ -110,6 +113,8 @@ pub enum Emitter {
     EnvMap(EnvMapLight),
     /// `spot`.
     Spot(SpotLight),
+    /// `preetham`.
+    Preetham(PreethamLight),
 }
 
 /// Builds an emitter plugin from its parameters.
@@ -129,6 +134,9 @@ pub const PLUGINS: &[(&str, EmitterFromParams)] = &[
         Ok(Emitter::EnvMap(EnvMapLight::from_params(p)?))
     }),
     ("spot", |p| Ok(Emitter::Spot(SpotLight::from_params(p)?))),
+    ("preetham", |p| {
+        Ok(Emitter::Preetham(PreethamLight::from_params(p)?))
+    }),
 ];
 
 /// What a texture needs of a point an emitter looks up: position, normal
@@ -161,6 +169,10 @@ pub fn build_distributions(
             env.distribution = distributions.len() as u32;
             distributions.push(env.sampling_distribution(image));
         }
+        if let Emitter::Preetham(sky) = e {
+            sky.distribution = distributions.len() as u32;
+            distributions.push(sky.sampling_distribution());
+        }
     }
     Ok(distributions)
 }
@@ -174,6 +186,7 @@ macro_rules! dispatch {
             Emitter::Constant($l) => $e,
             Emitter::EnvMap($l) => $e,
             Emitter::Spot($l) => $e,
+            Emitter::Preetham($l) => $e,
         }
     };
 }
@@ -216,6 +229,7 @@ impl Emitter {
         match self {
             Emitter::Constant(c) => c.radiance,
             Emitter::EnvMap(m) => m.radiance(ctx, d),
+            Emitter::Preetham(s) => s.radiance(d),
             _ => Rgb::ZERO,
         }
     }
@@ -235,6 +249,11 @@ impl Emitter {
             Emitter::Spot(s) => s.power(ctx),
             Emitter::Directional(d) => disk * luminance(d.irradiance),
             Emitter::Constant(_) | Emitter::EnvMap(_) => disk * self.environment_integral(ctx),
+            // The grid would miss the sun's disk: it is added in closed form.
+            Emitter::Preetham(s) => {
+                let sun = luminance(s.sun_radiance) * 2.0 * PI * (1.0 - s.cos_sun_radius);
+                disk * (self.environment_integral(ctx) + sun)
+            }
         }
     }
 
@@ -258,6 +277,9 @@ impl Emitter {
 
     /// True for lights that surround the scene (hit by escaping rays).
     pub fn is_environment(&self) -> bool {
-        matches!(self, Emitter::Constant(_) | Emitter::EnvMap(_))
+        matches!(
+            self,
+            Emitter::Constant(_) | Emitter::EnvMap(_) | Emitter::Preetham(_)
+        )
     }
 }
