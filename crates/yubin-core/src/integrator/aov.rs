@@ -11,7 +11,7 @@
 //! | type          | channels          | value at the first hit                                  |
 //! |---------------|-------------------|---------------------------------------------------------|
 //! | `albedo`      | `name.R,G,B`      | π · f(wo, n): the BSDF's reflectance towards the shading normal (see below) |
-//! | `depth`       | `name.T`          | distance along the camera ray (`t` of a unit ray, not view-space z) |
+//! | `depth`       | `name.T`          | distance along the camera ray from where it starts, at the near-clip plane (not view-space z; see below) |
 //! | `position`    | `name.X,Y,Z`      | world-space hit point                                   |
 //! | `uv`          | `name.U,V`        | surface uv                                              |
 //! | `geo_normal`  | `name.X,Y,Z`      | geometric normal (world, unit)                          |
@@ -31,6 +31,11 @@
 //! reconstruction filter like radiance does, so edges average (integer
 //! AOVs become fractional there, as in Mitsuba). Rays that miss give 0 in
 //! every AOV channel.
+//!
+//! `depth` is Mitsuba 3's `si.t`: its cameras start rays on the near-clip
+//! plane, so depth is the eye distance less `near_clip / cos θ` (θ the
+//! angle to the view axis). yubin's rays start at the eye with `t_min` on
+//! that plane; the AOV subtracts `t_min` to give the same number.
 //!
 //! Each nested integrator runs on the same camera ray and sample stream
 //! (one after the other) and adds a layer `name` with channels
@@ -239,7 +244,7 @@ impl AovIntegrator {
         for &(_, kind) in &self.aovs {
             match kind {
                 AovKind::Albedo => put(&albedo(scene, si).to_array()),
-                AovKind::Depth => put(&[si.t * ray.d.length()]),
+                AovKind::Depth => put(&[(si.t - ray.t_min) * ray.d.length()]),
                 AovKind::Position => put(&si.p.to_array()),
                 AovKind::Uv => put(&si.uv.to_array()),
                 AovKind::GeoNormal => put(&si.n.to_array()),

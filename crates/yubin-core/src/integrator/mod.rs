@@ -14,7 +14,7 @@ mod moment;
 mod path;
 
 pub use ao::AoIntegrator;
-pub use aov::{AovIntegrator, AovKind};
+pub use aov::{parse_aovs, AovIntegrator, AovKind};
 pub use direct::DirectIntegrator;
 pub use moment::MomentIntegrator;
 pub use path::PathIntegrator;
