@@ -95,6 +95,9 @@ pub fn plugin_of<T: Copy>(
         })
 }
 
+/// A nested object with the name its parent gives it (empty when unnamed).
+pub type NamedChild<'a> = (String, Box<dyn Params + 'a>);
+
 /// One object of a scene description, as a plugin sees it. Getters return
 /// `Ok(None)` when the parameter is absent and an error naming its line when
 /// it has the wrong type; whatever they return is marked as read.
@@ -114,7 +117,7 @@ pub trait Params {
         &mut self,
         family: Family,
         index: usize,
-    ) -> Result<Option<(String, Box<dyn Params + '_>)>, ParamError> {
+    ) -> Result<Option<NamedChild<'_>>, ParamError> {
         if index > 0 {
             return Ok(None);
         }

@@ -907,7 +907,7 @@ mod tests {
         let err = write_image(
             &temp_path("png"),
             &gradient(2, 2, 3),
-            &[("x", &gradient(2, 2, 3))],
+            &[ExrLayer::new("x", &gradient(2, 2, 3))],
         )
         .unwrap_err();
         assert!(err.to_string().contains("AOVs"), "{err}");

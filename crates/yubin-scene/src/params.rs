@@ -10,7 +10,7 @@ use crate::desc::{Category, Object, Spectrum, Value};
 use crate::error::SceneError;
 use glam::{DMat4, Vec3};
 use yubin_core::bsdf::Bsdf;
-use yubin_core::params::{ColorKind, Family, ParamError, Params};
+use yubin_core::params::{ColorKind, Family, NamedChild, ParamError, Params};
 use yubin_core::spectrum::{constant_spectrum_to_rgb, spectrum_to_rgb, Rgb};
 use yubin_core::texture::Tex;
 
@@ -86,7 +86,7 @@ impl Params for ObjParams<'_, '_, '_> {
         &mut self,
         family: Family,
         index: usize,
-    ) -> Result<Option<(String, Box<dyn Params + '_>)>, ParamError> {
+    ) -> Result<Option<NamedChild<'_>>, ParamError> {
         let obj = self.obj;
         let Some(c) = obj.children_of(category_of(family)).nth(index) else {
             return Ok(None);

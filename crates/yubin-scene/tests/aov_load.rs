@@ -78,10 +78,10 @@ fn bad_aov_lists_are_errors_with_file_and_line() {
             "needs a name",
         ),
     ] {
-        let err = load_scene_str(&scene(xml), Path::new("aov.xml"), &[])
-            .err()
-            .expect("load error")
-            .to_string();
+        let Err(err) = load_scene_str(&scene(xml), Path::new("aov.xml"), &[]) else {
+            panic!("{needle}: the scene loaded");
+        };
+        let err = err.to_string();
         assert!(err.contains(line), "{err}");
         assert!(err.contains(needle), "{err}");
     }
