@@ -768,24 +768,23 @@ mod tests {
         };
         let err = write_exr_layers(&path, &[ExrLayer::new("", &main), bad]).unwrap_err();
         assert!(err.to_string().contains("3 channels but 1"), "{err}");
-        let clash = ExrLayer {
-            channels: Some(&t),
-            ..ExrLayer::new("", &depth)
+        // Distinct layers whose full channel names coincide: "a.b" + "C"
+        // and "a" + "b.C" are both "a.b.C".
+        let (c, bc) = (["C".to_string()], ["b.C".to_string()]);
+        let ab = ExrLayer {
+            channels: Some(&c),
+            ..ExrLayer::new("a.b", &depth)
         };
-        let y = ["Y".to_string()];
-        let clash2 = ExrLayer {
-            channels: Some(&y),
-            ..ExrLayer::new("T", &depth)
+        let a = ExrLayer {
+            channels: Some(&bc),
+            ..ExrLayer::new("a", &depth)
         };
-        let t_again = ExrLayer {
-            channels: Some(&t),
-            ..ExrLayer::new("dd", &depth)
-        };
-        assert!(write_exr_layers(&path, &[clash, clash2]).is_ok());
-        let err =
-            write_exr_layers(&path, &[clash, ExrLayer::new("dd", &depth), t_again]).unwrap_err();
-        let _ = std::fs::remove_file(&path);
-        assert!(err.to_string().contains("two layers"), "{err}");
+        let err = write_exr_layers(&path, &[ExrLayer::new("", &main), ab, a]).unwrap_err();
+        assert!(
+            err.to_string().contains("two channels are named 'a.b.C'"),
+            "{err}"
+        );
+        assert!(!path.exists());
         assert_eq!(back, main);
     }
 
