@@ -4,7 +4,7 @@
 //! its closed form.
 
 use glam::{Affine3A, Vec2, Vec3};
-use yubin_core::bsdf::{Bsdf, Diffuse};
+use yubin_core::bsdf::{Bsdf, Diffuse, Plastic, TwoSided};
 use yubin_core::camera::{Camera, FovAxis, Perspective};
 use yubin_core::film::Film;
 use yubin_core::filter::Filter;
@@ -122,6 +122,60 @@ fn aov_depth_position_and_normal_of_a_plane() {
             }
             // No nested integrator: the main RGB is zero.
             assert_eq!((get(0), get(1), get(2)), (0.0, 0.0, 0.0));
+        }
+    }
+}
+
+#[test]
+fn aov_albedo_is_the_diffuse_parameter_as_in_mitsuba() {
+    // A plastic plane (two-sided, seen from below) and a plastic sphere:
+    // Mitsuba's albedo is the diffuse reflectance, not π · f (which has the
+    // Fresnel and internal-reflection factors in it).
+    let rho = Rgb::new(0.5, 0.5, 0.12);
+    for two_sided in [false, true] {
+        let mut b = SceneBuilder::new();
+        let plastic = b.add_bsdf(Bsdf::Plastic(Plastic::new(rho, 1.9, false)));
+        let bsdf = if two_sided {
+            b.add_bsdf(Bsdf::TwoSided(TwoSided {
+                front: plastic,
+                back: plastic,
+            }))
+        } else {
+            plastic
+        };
+        let big = Transform::new(Affine3A::from_scale(Vec3::splat(50.0))).unwrap();
+        b.add_shape(
+            Shape::Rectangle(Rectangle {
+                to_world: big,
+                // Seen from its back when two-sided.
+                flip_normals: two_sided,
+            }),
+            Some(bsdf),
+            None,
+        )
+        .unwrap();
+        let to_world = Affine3A::from_translation(Vec3::new(0.0, 0.0, HEIGHT))
+            * Affine3A::from_rotation_x(std::f32::consts::PI);
+        b.camera(Camera::Perspective(Perspective::new(
+            to_world,
+            40.0,
+            FovAxis::X,
+            4,
+            4,
+            NEAR,
+            100.0,
+        )));
+        b.film(Film::new(4, 4, Filter::Box));
+        b.sampler(Sampler::Independent(Independent { sample_count: 1 }));
+        let scene = b.build().unwrap();
+        let out = run(&scene, &aov("a:albedo", Vec::new()), 2);
+        let a = offset_of(&out, "a");
+        for px in out.image.data.chunks_exact(out.image.channels) {
+            let got = Rgb::new(px[a], px[a + 1], px[a + 2]);
+            assert!(
+                (got - rho).abs().max_element() < 1e-6,
+                "{got} two-sided {two_sided}"
+            );
         }
     }
 }

@@ -10,7 +10,7 @@
 //!
 //! | type          | channels          | value at the first hit                                  |
 //! |---------------|-------------------|---------------------------------------------------------|
-//! | `albedo`      | `name.R,G,B`      | π · f(wo, n): the BSDF's reflectance towards the shading normal (see below) |
+//! | `albedo`      | `name.R,G,B`      | the BSDF's diffuse reflectance, as Mitsuba 3 defines it (see below) |
 //! | `depth`       | `name.T`          | distance along the camera ray from where it starts, at the near-clip plane (not view-space z; see below) |
 //! | `position`    | `name.X,Y,Z`      | world-space hit point                                   |
 //! | `uv`          | `name.U,V`        | surface uv                                              |
@@ -18,7 +18,7 @@
 //! | `sh_normal`   | `name.X,Y,Z`      | shading normal (world, unit; interpolated/bump/normal-mapped frame of the hit, before BSDF perturbation) |
 //! | `dp_du`, `dp_dv` | `name.X,Y,Z`   | position partials with respect to the uv parameterization |
 //! | `prim_index`  | `name.I`          | primitive index within the shape (triangle index)       |
-//! | `shape_index` | `name.I`          | index of the shape in the scene, in load order          |
+//! | `shape_index` | `name.I`          | 1 + the index of the shape in the scene's load order (0 is left for misses) |
 //!
 //! ```xml
 //! <integrator type="aov">
@@ -47,27 +47,31 @@
 //! 0 when there is none (Mitsuba's image then has only the AOV channels
 //! besides a zero RGBA; yubin's main image is RGB and has no alpha).
 //!
-//! `albedo` is Mitsuba's default `eval_diffuse_reflectance`: π times the
-//! BSDF value for light arriving along the shading normal, seen from the
-//! camera ray's direction. It is exactly the reflectance of `diffuse` and
-//! of a `twosided` diffuse, an approximation for glossy models (it
-//! includes whatever glossy lobe points towards the camera), and 0 for
-//! purely specular (delta) BSDFs. Mitsuba overrides it for a few plugins
-//! (e.g. `principled` returns its base colour); yubin uses the one
-//! definition for every BSDF.
+//! `albedo` is Mitsuba 3's `eval_diffuse_reflectance`: the diffuse colour
+//! parameter of `diffuse` (`reflectance`), `plastic` and `roughplastic`
+//! (`diffuse_reflectance`), `principled` and `principledthin`
+//! (`base_color`), evaluated at the hit (textures included); `twosided`
+//! answers for the side the camera sees, `bumpmap` and `normalmap` for the
+//! BSDF they wrap. Every other BSDF gets Mitsuba's default, π · f(wo, n):
+//! the BSDF's value for light arriving along the shading normal, seen from
+//! the camera — an approximation for glossy models (it includes whatever
+//! lobe points at the camera) and 0 for purely specular ones.
 //!
 //! Differences from Mitsuba 3: `duv_dx`, `duv_dy` (yubin's camera rays
 //! carry no differentials) and `boundary_test` are not supported and are
 //! load errors, as are unknown types, malformed pairs, duplicate names and
-//! unnamed nested integrators. `shape_index` is the scene's shape index
-//! (Mitsuba writes the bits of the shape pointer in scalar variants).
+//! unnamed nested integrators. `shape_index` labels shapes 1, 2, … in load
+//! order; Mitsuba writes its own shape ids (also from 1, but not in file
+//! order: the Mitsuba 3.9.1 docs scene numbers its three shapes in
+//! reverse), so the labels are not comparable between the two.
 //!
 //! Reference: Mitsuba 3 documentation, "Arbitrary Output Variables
 //! integrator (aov)"; `BSDF::eval_diffuse_reflectance`.
 
 use super::{Integrator, Layer};
-use crate::bsdf::{BsdfContext, BsdfModel};
+use crate::bsdf::{Bsdf, BsdfContext, BsdfModel};
 use crate::interaction::SurfaceInteraction;
+use crate::material::Materials;
 use crate::math::Ray;
 use crate::params::{Family, ParamError, Params};
 use crate::sampler::SampleStream;
@@ -252,19 +256,50 @@ impl AovIntegrator {
                 AovKind::DpDu => put(&si.dpdu.to_array()),
                 AovKind::DpDv => put(&si.dpdv.to_array()),
                 AovKind::PrimIndex => put(&[si.prim as f32]),
-                AovKind::ShapeIndex => put(&[si.shape as f32]),
+                AovKind::ShapeIndex => put(&[(si.shape + 1) as f32]),
             }
         }
     }
 }
 
-/// Mitsuba 3's default `eval_diffuse_reflectance`: π · f(wo, n) · cos 0,
-/// the BSDF's value for light from the shading normal towards the camera.
+/// The `albedo` AOV at a hit: Mitsuba 3's `eval_diffuse_reflectance` of
+/// the surface's BSDF, seen from the camera ray.
 pub fn albedo(scene: &Scene, si: &SurfaceInteraction) -> Rgb {
-    let bsdf = scene.bsdf_of(si.shape);
     let wo = si.to_local(si.wo);
-    let f = bsdf.eval(&scene.materials, &BsdfContext::default(), si, wo, Vec3::Z);
-    f * std::f32::consts::PI
+    diffuse_reflectance(&scene.materials, scene.bsdf_of(si.shape), si, wo, 0)
+}
+
+/// Mitsuba 3's `eval_diffuse_reflectance`: the diffuse colour parameter of
+/// the models that override it (`diffuse`, `plastic`, `roughplastic`,
+/// `principled`, `principledthin`; `twosided`, `bumpmap` and `normalmap`
+/// ask the BSDF they wrap), else its default π · f(wo, n), the BSDF's
+/// value for light arriving along the shading normal. `depth` bounds the
+/// recursion through wrappers.
+fn diffuse_reflectance(
+    m: &Materials,
+    bsdf: &Bsdf,
+    si: &SurfaceInteraction,
+    wo: Vec3,
+    depth: u32,
+) -> Rgb {
+    const MAX_NESTING: u32 = 16;
+    let nested = |id: u32, wo: Vec3| match m.bsdfs.get(id as usize) {
+        Some(b) if depth < MAX_NESTING => diffuse_reflectance(m, b, si, wo, depth + 1),
+        _ => Rgb::ZERO,
+    };
+    match bsdf {
+        Bsdf::Diffuse(b) => b.reflectance.eval(m, si),
+        Bsdf::Plastic(b) => b.diffuse_reflectance.eval(m, si),
+        Bsdf::RoughPlastic(b) => b.diffuse_reflectance.eval(m, si),
+        Bsdf::Principled(b) => b.common.base_color.eval(m, si),
+        Bsdf::PrincipledThin(b) => b.common.base_color.eval(m, si),
+        // The side the camera sees, mirrored to that BSDF's front.
+        Bsdf::TwoSided(b) if wo.z >= 0.0 => nested(b.front, wo),
+        Bsdf::TwoSided(b) => nested(b.back, Vec3::new(wo.x, wo.y, -wo.z)),
+        Bsdf::BumpMap(b) => nested(b.nested, wo),
+        Bsdf::NormalMap(b) => nested(b.nested, wo),
+        other => other.eval(m, &BsdfContext::default(), si, wo, Vec3::Z) * std::f32::consts::PI,
+    }
 }
 
 impl Integrator for AovIntegrator {
