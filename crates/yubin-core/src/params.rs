@@ -95,6 +95,9 @@ pub fn plugin_of<T: Copy>(
         })
 }
 
+/// A nested object with the name its parent gives it (empty when unnamed).
+pub type NamedChild<'a> = (String, Box<dyn Params + 'a>);
+
 /// One object of a scene description, as a plugin sees it. Getters return
 /// `Ok(None)` when the parameter is absent and an error naming its line when
 /// it has the wrong type; whatever they return is marked as read.
@@ -106,6 +109,20 @@ pub trait Params {
     /// The object's one nested object of `family`, if any (more than one
     /// is an error).
     fn child(&mut self, family: Family) -> Result<Option<Box<dyn Params + '_>>, ParamError>;
+    /// The object's `index`-th nested object of `family` in the order
+    /// written, with the name the parent gives it (empty when unnamed);
+    /// `None` past the last. For plugins that take several (`aov`). The
+    /// default sees at most the one [`Params::child`] returns.
+    fn nth_child(
+        &mut self,
+        family: Family,
+        index: usize,
+    ) -> Result<Option<NamedChild<'_>>, ParamError> {
+        if index > 0 {
+            return Ok(None);
+        }
+        Ok(self.child(family)?.map(|c| (String::new(), c)))
+    }
     /// An error whose message is `msg` prefixed by the location of parameter
     /// `name` (of the object itself when `name` is `None` or absent).
     fn error_at(&self, name: Option<&str>, msg: &str) -> ParamError;

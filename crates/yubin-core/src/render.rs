@@ -4,7 +4,7 @@
 //! dimension, seed), so the image is bit-identical for any thread count.
 
 use crate::film::{Framebuffer, Tile, TileBuffer};
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Layer};
 use crate::Scene;
 use glam::Vec2;
 use rayon::prelude::*;
@@ -76,10 +76,10 @@ pub fn render(
 /// What [`render`] produces.
 #[derive(Clone, Debug)]
 pub struct RenderOutput {
-    /// RGB, then three channels per extra layer.
+    /// RGB, then the channels of each extra layer in turn.
     pub image: Framebuffer,
-    /// Names of the extra layers after RGB.
-    pub layers: Vec<String>,
+    /// The extra layers after RGB (names and channel suffixes).
+    pub layers: Vec<Layer>,
     /// Samples discarded because they were NaN or infinite.
     pub dropped_samples: u64,
 }

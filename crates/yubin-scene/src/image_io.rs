@@ -21,7 +21,8 @@
 //! every further layer `name` as `name.R`, `name.G`, `name.B` — the
 //! single-part multi-layer convention that Mitsuba and most viewers use for
 //! AOVs. Channel names by channel count: 1 → `Y`; 2 → `Y`,`A`; 3 →
-//! `R`,`G`,`B`; 4 → `R`,`G`,`B`,`A`; more → `0`, `1`, ….
+//! `R`,`G`,`B`; 4 → `R`,`G`,`B`,`A`; more → `0`, `1`, …, unless the
+//! layer names its channels ([`ExrLayer::channels`]: `depth.T`, `nn.X`).
 //!
 //! PNG: 8 bit; colour channels get the sRGB transfer function, then are
 //! clamped to [0, 1] and rounded; alpha is written linearly. Tone mapping
@@ -368,20 +369,76 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     }
 }
 
+/// One layer of an EXR file for [`write_exr_layers`] and [`write_image`]:
+/// its name (`""` for the main image), its channel suffixes (`None`: named
+/// by channel count, see the module docs) and its pixels.
+#[derive(Clone, Copy, Debug)]
+pub struct ExrLayer<'a> {
+    /// Layer name, the channel prefix (`""`: none).
+    pub name: &'a str,
+    /// Channel suffixes, one per image channel; `None` names them by count.
+    pub channels: Option<&'a [String]>,
+    /// The pixels.
+    pub image: &'a Image,
+}
+
+impl<'a> ExrLayer<'a> {
+    /// A layer whose channels are named by their count.
+    pub fn new(name: &'a str, image: &'a Image) -> Self {
+        Self {
+            name,
+            channels: None,
+            image,
+        }
+    }
+}
+
 /// Writes `layers` as one single-part EXR: the layer named `""` as `R`,`G`,`B`,
 /// the others as `name.R`, … (see the module docs). All layers must have the
 /// same size.
 pub fn write_exr(path: &Path, layers: &[(&str, &Image)]) -> Result<(), SceneError> {
+    let layers: Vec<ExrLayer> = layers
+        .iter()
+        .map(|&(name, image)| ExrLayer::new(name, image))
+        .collect();
+    write_exr_layers(path, &layers)
+}
+
+/// [`write_exr`] with explicit channel suffixes: a layer `name` with
+/// suffixes `["X", "Y", "Z"]` is written as `name.X`, `name.Y`, `name.Z`
+/// (the main layer `""` as `X`, `Y`, `Z`).
+pub fn write_exr_layers(path: &Path, layers: &[ExrLayer]) -> Result<(), SceneError> {
     let (width, height) = check_exr_layers(path, layers)?;
     let mut channels =
         exr::prelude::SmallVec::<[exr::prelude::AnyChannel<exr::prelude::FlatSamples>; 4]>::new();
-    for &(name, image) in layers {
-        for (c, suffix) in channel_names(image.channels).iter().enumerate() {
+    for layer in layers {
+        let (name, image) = (layer.name, layer.image);
+        let suffixes = match layer.channels {
+            Some(names) if names.len() == image.channels => names.to_vec(),
+            Some(names) => {
+                return Err(SceneError::file(
+                    path,
+                    format!(
+                        "layer '{name}' has {} channels but {} channel names",
+                        image.channels,
+                        names.len()
+                    ),
+                ))
+            }
+            None => channel_names(image.channels),
+        };
+        for (c, suffix) in suffixes.iter().enumerate() {
             let full_name = if name.is_empty() {
                 suffix.clone()
             } else {
                 format!("{name}.{suffix}")
             };
+            if channels.iter().any(|ch| ch.name.to_string() == full_name) {
+                return Err(SceneError::file(
+                    path,
+                    format!("two channels are named '{full_name}'"),
+                ));
+            }
             let text = exr::prelude::Text::new_or_none(&full_name).ok_or_else(|| {
                 SceneError::file(
                     path,
@@ -419,11 +476,11 @@ pub fn write_exr(path: &Path, layers: &[(&str, &Image)]) -> Result<(), SceneErro
 
 /// Checks that the layers are non-empty, consistent, equally sized and
 /// uniquely named; returns their size.
-fn check_exr_layers(path: &Path, layers: &[(&str, &Image)]) -> Result<(usize, usize), SceneError> {
-    let Some(&(_, first)) = layers.first() else {
+fn check_exr_layers(path: &Path, layers: &[ExrLayer]) -> Result<(usize, usize), SceneError> {
+    let Some(first) = layers.first().map(|l| l.image) else {
         return Err(SceneError::file(path, "no image to write"));
     };
-    for (i, &(name, image)) in layers.iter().enumerate() {
+    for (i, &ExrLayer { name, image, .. }) in layers.iter().enumerate() {
         check_writable(path, image)?;
         if (image.width, image.height) != (first.width, first.height) {
             return Err(SceneError::file(
@@ -434,7 +491,7 @@ fn check_exr_layers(path: &Path, layers: &[(&str, &Image)]) -> Result<(usize, us
                 ),
             ));
         }
-        if layers[..i].iter().any(|&(other, _)| other == name) {
+        if layers[..i].iter().any(|other| other.name == name) {
             return Err(SceneError::file(
                 path,
                 format!("two layers are named '{name}'"),
@@ -545,21 +602,17 @@ fn quantize_unit(v: f32) -> u8 {
 
 /// Writes `img` in the format named by the extension of `path` (`.exr`, `.png`,
 /// case-insensitive). `extra_layers` (AOVs) need EXR.
-pub fn write_image(
-    path: &Path,
-    img: &Image,
-    extra_layers: &[(&str, &Image)],
-) -> Result<(), SceneError> {
+pub fn write_image(path: &Path, img: &Image, extra_layers: &[ExrLayer]) -> Result<(), SceneError> {
     let extension = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     match extension.as_deref() {
         Some("exr") => {
-            let layers: Vec<(&str, &Image)> = std::iter::once(("", img))
+            let layers: Vec<ExrLayer> = std::iter::once(ExrLayer::new("", img))
                 .chain(extra_layers.iter().copied())
                 .collect();
-            write_exr(path, &layers)
+            write_exr_layers(path, &layers)
         }
         Some("png") if extra_layers.is_empty() => write_png(path, img),
         Some("png") => Err(SceneError::file(
@@ -679,7 +732,21 @@ mod tests {
         let main = gradient(4, 3, 4);
         let albedo = gradient(4, 3, 3);
         let depth = gradient(4, 3, 1);
-        write_image(&path, &main, &[("albedo", &albedo), ("depth", &depth)]).unwrap();
+        let t = ["T".to_string()];
+        let depth_t = ExrLayer {
+            channels: Some(&t),
+            ..ExrLayer::new("dd", &depth)
+        };
+        write_image(
+            &path,
+            &main,
+            &[
+                ExrLayer::new("albedo", &albedo),
+                ExrLayer::new("depth", &depth),
+                depth_t,
+            ],
+        )
+        .unwrap();
         let raw = exr::prelude::read_first_flat_layer_from_file(&path).unwrap();
         let back = read_image(&path, ColorHandling::Raw).unwrap();
         let _ = std::fs::remove_file(&path);
@@ -693,8 +760,31 @@ mod tests {
         names.sort();
         assert_eq!(
             names,
-            ["A", "B", "G", "R", "albedo.B", "albedo.G", "albedo.R", "depth.Y"]
+            ["A", "B", "G", "R", "albedo.B", "albedo.G", "albedo.R", "dd.T", "depth.Y"]
         );
+        let bad = ExrLayer {
+            channels: Some(&t),
+            ..ExrLayer::new("x", &albedo)
+        };
+        let err = write_exr_layers(&path, &[ExrLayer::new("", &main), bad]).unwrap_err();
+        assert!(err.to_string().contains("3 channels but 1"), "{err}");
+        // Distinct layers whose full channel names coincide: "a.b" + "C"
+        // and "a" + "b.C" are both "a.b.C".
+        let (c, bc) = (["C".to_string()], ["b.C".to_string()]);
+        let ab = ExrLayer {
+            channels: Some(&c),
+            ..ExrLayer::new("a.b", &depth)
+        };
+        let a = ExrLayer {
+            channels: Some(&bc),
+            ..ExrLayer::new("a", &depth)
+        };
+        let err = write_exr_layers(&path, &[ExrLayer::new("", &main), ab, a]).unwrap_err();
+        assert!(
+            err.to_string().contains("two channels are named 'a.b.C'"),
+            "{err}"
+        );
+        assert!(!path.exists());
         assert_eq!(back, main);
     }
 
@@ -816,7 +906,7 @@ mod tests {
         let err = write_image(
             &temp_path("png"),
             &gradient(2, 2, 3),
-            &[("x", &gradient(2, 2, 3))],
+            &[ExrLayer::new("x", &gradient(2, 2, 3))],
         )
         .unwrap_err();
         assert!(err.to_string().contains("AOVs"), "{err}");

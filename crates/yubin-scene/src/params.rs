@@ -10,7 +10,7 @@ use crate::desc::{Category, Object, Spectrum, Value};
 use crate::error::SceneError;
 use glam::{DMat4, Vec3};
 use yubin_core::bsdf::Bsdf;
-use yubin_core::params::{ColorKind, Family, ParamError, Params};
+use yubin_core::params::{ColorKind, Family, NamedChild, ParamError, Params};
 use yubin_core::spectrum::{constant_spectrum_to_rgb, spectrum_to_rgb, Rgb};
 use yubin_core::texture::Tex;
 
@@ -38,6 +38,16 @@ fn value_to_rgb(value: &Value, kind: ColorKind) -> Option<Rgb> {
     })
 }
 
+/// The description category of a nested-object family.
+fn category_of(family: Family) -> Category {
+    match family {
+        Family::Film => Category::Film,
+        Family::Sampler => Category::Sampler,
+        Family::Rfilter => Category::Rfilter,
+        Family::Integrator => Category::Integrator,
+    }
+}
+
 impl ObjParams<'_, '_, '_> {
     fn check_color(&self, name: &str, rgb: Rgb, kind: ColorKind) -> Result<Rgb, ParamError> {
         if !rgb.is_finite() || (kind != ColorKind::Unbounded && rgb.min_element() < 0.0) {
@@ -62,20 +72,33 @@ impl Params for ObjParams<'_, '_, '_> {
     }
 
     fn child(&mut self, family: Family) -> Result<Option<Box<dyn Params + '_>>, ParamError> {
-        let category = match family {
-            Family::Film => Category::Film,
-            Family::Sampler => Category::Sampler,
-            Family::Rfilter => Category::Rfilter,
-            Family::Integrator => Category::Integrator,
-        };
         let obj = self.obj;
-        let child = obj.single_child(category).map_err(to_param)?;
+        let child = obj.single_child(category_of(family)).map_err(to_param)?;
         Ok(child.map(|c| {
             Box::new(ObjParams {
                 obj: &c.object,
                 b: &mut *self.b,
             }) as Box<dyn Params + '_>
         }))
+    }
+
+    fn nth_child(
+        &mut self,
+        family: Family,
+        index: usize,
+    ) -> Result<Option<NamedChild<'_>>, ParamError> {
+        let obj = self.obj;
+        let Some(c) = obj.children_of(category_of(family)).nth(index) else {
+            return Ok(None);
+        };
+        let name = c.name.clone().unwrap_or_default();
+        Ok(Some((
+            name,
+            Box::new(ObjParams {
+                obj: &c.object,
+                b: &mut *self.b,
+            }) as Box<dyn Params + '_>,
+        )))
     }
 
     fn error_at(&self, name: Option<&str>, msg: &str) -> ParamError {

@@ -5,7 +5,7 @@ use anyhow::Result;
 use std::path::Path;
 use yubin_core::film::Framebuffer;
 use yubin_core::render::RenderOutput;
-use yubin_scene::image_io::{write_image, Image};
+use yubin_scene::image_io::{write_image, ExrLayer, Image};
 
 fn to_image(fb: &Framebuffer) -> Image {
     Image {
@@ -16,26 +16,34 @@ fn to_image(fb: &Framebuffer) -> Image {
     }
 }
 
-/// Writes the RGB image and, for EXR, every extra layer the integrator made.
+/// Writes the RGB image and, for EXR, every extra layer the integrator made,
+/// each channel named `layer.suffix` as the integrator names it.
 pub fn write_output(path: &Path, out: &RenderOutput) -> Result<()> {
     let rgb = to_image(&out.image.select_channels(0..3));
-    let layers: Vec<(String, Image)> = out
+    let mut offset = 3;
+    let layers: Vec<Image> = out
         .layers
         .iter()
-        .enumerate()
-        .map(|(i, name)| {
-            (
-                name.clone(),
-                to_image(&out.image.select_channels(3 + 3 * i..6 + 3 * i)),
-            )
+        .map(|layer| {
+            let range = offset..offset + layer.width();
+            offset = range.end;
+            to_image(&out.image.select_channels(range))
         })
         .collect();
     // Only EXR holds extra layers; a PNG gets the RGB image alone.
     let is_exr = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    let extra: Vec<(&str, &Image)> = if is_exr {
-        layers.iter().map(|(n, img)| (n.as_str(), img)).collect()
+    let extra: Vec<ExrLayer> = if is_exr {
+        out.layers
+            .iter()
+            .zip(&layers)
+            .map(|(layer, image)| ExrLayer {
+                name: &layer.name,
+                channels: Some(&layer.channels),
+                image,
+            })
+            .collect()
     } else {
         Vec::new()
     };

@@ -3,13 +3,18 @@
 //! dispatch.
 //!
 //! An integrator turns one camera ray into `channel_count()` values: RGB
-//! radiance first, then any extra channels it defines (`moment` adds the
-//! second moment).
+//! radiance first, then the channels of any extra [`Layer`]s it defines
+//! (`moment` adds the second moment, `aov` depth, normals, …); a layer is
+//! as wide as it needs (depth 1, uv 2, RGBA 4).
 
+mod ao;
+mod aov;
 mod direct;
 mod moment;
 mod path;
 
+pub use ao::AoIntegrator;
+pub use aov::{parse_aovs, AovIntegrator, AovKind};
 pub use direct::DirectIntegrator;
 pub use moment::MomentIntegrator;
 pub use path::PathIntegrator;
@@ -26,6 +31,8 @@ pub const PLUGINS: &[(&str, IntegratorFromParams)] = &[
     ("moment", |p| {
         Ok(Box::new(MomentIntegrator::from_params(p)?))
     }),
+    ("aov", |p| Ok(Box::new(AovIntegrator::from_params(p)?))),
+    ("ao", |p| Ok(Box::new(AoIntegrator::from_params(p)?))),
 ];
 
 /// Builds the integrator `p` describes, by its plugin type.
@@ -52,23 +59,48 @@ use crate::sampling::power_heuristic;
 use crate::{Rgb, Scene};
 use glam::Vec3;
 
+/// A group of output channels after RGB, written to EXR as `name.C` for
+/// each channel suffix `C` (`m2.R`, `depth.T`, `nn.X`, …).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Layer {
+    /// The layer name (the EXR channel prefix).
+    pub name: String,
+    /// The channel suffixes, one per value.
+    pub channels: Vec<String>,
+}
+
+impl Layer {
+    /// A layer `name` with the channel suffixes `channels`.
+    pub fn new(name: impl Into<String>, channels: &[&str]) -> Self {
+        Self {
+            name: name.into(),
+            channels: channels.iter().map(|c| c.to_string()).collect(),
+        }
+    }
+
+    /// Number of channels.
+    pub fn width(&self) -> usize {
+        self.channels.len()
+    }
+}
+
 /// A light-transport algorithm.
 pub trait Integrator: Send + Sync + std::fmt::Debug {
-    /// Names of the channel groups after RGB (e.g. `["m2"]`), each three
-    /// channels wide.
-    fn extra_layers(&self) -> Vec<String> {
+    /// The channel groups after RGB (e.g. `m2` with `R`,`G`,`B`), in the
+    /// order their values follow RGB in [`Integrator::sample`]'s output.
+    fn extra_layers(&self) -> Vec<Layer> {
         Vec::new()
     }
 
-    /// Number of extra layers (what `extra_layers().len()` is, without
-    /// allocating: it is asked per sample).
-    fn extra_layer_count(&self) -> usize {
+    /// Number of values after RGB: the summed widths of
+    /// `extra_layers()`, without allocating (it is asked per sample).
+    fn extra_channel_count(&self) -> usize {
         0
     }
 
-    /// Values per sample: 3 per layer, RGB first.
+    /// Values per sample: RGB, then the extra layers' channels.
     fn channel_count(&self) -> usize {
-        3 * (1 + self.extra_layer_count())
+        3 + self.extra_channel_count()
     }
 
     /// How the integrator wants emitters chosen for light sampling, if it

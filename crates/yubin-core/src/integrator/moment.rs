@@ -13,7 +13,7 @@
 //! Output: RGB of the nested integrator, then a layer `m2` holding the
 //! (filter-weighted) mean of the squared samples; variance = m2 − mean².
 
-use super::Integrator;
+use super::{Integrator, Layer};
 use crate::math::Ray;
 use crate::params::{Family, ParamError, Params};
 use crate::sampler::SampleStream;
@@ -39,14 +39,14 @@ impl MomentIntegrator {
 }
 
 impl Integrator for MomentIntegrator {
-    fn extra_layers(&self) -> Vec<String> {
+    fn extra_layers(&self) -> Vec<Layer> {
         let mut layers = self.nested.extra_layers();
-        layers.push("m2".into());
+        layers.push(Layer::new("m2", &["R", "G", "B"]));
         layers
     }
 
-    fn extra_layer_count(&self) -> usize {
-        self.nested.extra_layer_count() + 1
+    fn extra_channel_count(&self) -> usize {
+        self.nested.extra_channel_count() + 3
     }
 
     fn light_selection(&self) -> Option<crate::light::LightSelection> {

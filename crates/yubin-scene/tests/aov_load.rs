@@ -1,0 +1,88 @@
+//! Loading `aov` and `ao` from Mitsuba XML: named nested integrators become
+//! layers, and bad AOV lists are load errors that name the file and line.
+
+use std::path::Path;
+use yubin_scene::build::load_scene_str;
+
+fn scene(integrator: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+{integrator}
+<shape type="sphere"/>
+<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film></sensor>
+</scene>"#
+    )
+}
+
+fn layer_names(xml: &str) -> Vec<String> {
+    let loaded = load_scene_str(&scene(xml), Path::new("aov.xml"), &[]).unwrap();
+    loaded
+        .integrator
+        .extra_layers()
+        .iter()
+        .flat_map(|l| l.channels.iter().map(move |c| format!("{}.{c}", l.name)))
+        .collect()
+}
+
+#[test]
+fn aov_layers_from_xml() {
+    let names = layer_names(
+        r#"<integrator type="aov">
+    <string name="aovs" value="nn:sh_normal, depth.y:depth"/>
+    <integrator type="path" name="image"/>
+    <integrator type="moment" name="mom"><integrator type="direct"/></integrator>
+</integrator>"#,
+    );
+    assert_eq!(
+        names,
+        [
+            "image.R",
+            "image.G",
+            "image.B",
+            "image.A",
+            "mom.R",
+            "mom.G",
+            "mom.B",
+            "mom.A",
+            "mom.m2.R",
+            "mom.m2.G",
+            "mom.m2.B",
+            "nn.X",
+            "nn.Y",
+            "nn.Z",
+            "depth.y.T"
+        ]
+    );
+    let ao = layer_names(
+        r#"<integrator type="ao"><integer name="shading_samples" value="4"/></integrator>"#,
+    );
+    assert!(ao.is_empty());
+}
+
+#[test]
+fn bad_aov_lists_are_errors_with_file_and_line() {
+    for (xml, line, needle) in [
+        (
+            r#"<integrator type="aov">
+    <string name="aovs" value="dd:depht"/>
+</integrator>"#,
+            "aov.xml:3:",
+            "unsupported AOV type \"depht\"",
+        ),
+        (
+            r#"<integrator type="aov">
+    <string name="aovs" value="dd:depth"/>
+    <integrator type="path"/>
+</integrator>"#,
+            "aov.xml:4:",
+            "needs a name",
+        ),
+    ] {
+        let Err(err) = load_scene_str(&scene(xml), Path::new("aov.xml"), &[]) else {
+            panic!("{needle}: the scene loaded");
+        };
+        let err = err.to_string();
+        assert!(err.contains(line), "{err}");
+        assert!(err.contains(needle), "{err}");
+    }
+}
