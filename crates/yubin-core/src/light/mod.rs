@@ -21,8 +21,8 @@ mod constant;
 mod directional;
 mod envmap;
 mod point;
-pub mod selection;
 mod preetham;
+pub mod selection;
 mod spot;
 
 pub use area::AreaLight;
@@ -30,8 +30,8 @@ pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
 pub use envmap::EnvMapLight;
 pub use point::PointLight;
-pub use selection::{EmitterOptions, LightChoice, LightSampler, LightSelection};
 pub use preetham::PreethamLight;
+pub use selection::{EmitterOptions, LightChoice, LightSampler, LightSelection};
 pub use spot::SpotLight;
 
 use crate::interaction::SurfaceInteraction;
