@@ -10,12 +10,15 @@
 //! - [`cornell`]: whole renders against Mitsuba 3 (wall time and error).
 //! - [`manylights`]: uniform, power and light-BVH light selection on
 //!   10,000 emissive triangles (equal-time error).
+//! - [`envmap`]: time to build a 4096 × 2048 environment map's sampling
+//!   distribution.
 //! - [`rays`]: ray-traversal throughput, build time and memory of yubin's
 //!   BVH against Intel Embree in the same process, on the meshes and rays
 //!   of `../shared/tools/raybench` (issue 3). Run `setup.sh` first.
 
 mod alloc;
 mod cornell;
+mod envmap;
 mod manylights;
 mod rays;
 
@@ -29,6 +32,7 @@ static ALLOC: alloc::CountingAlloc = alloc::CountingAlloc;
 const USAGE: &str = "usage:
   yubin-bench cornell [--spp N] [--scene PATH] [--skip-mitsuba]
   yubin-bench manylights [--spp N] [--ref-spp N] [--res N]
+  yubin-bench envmap [--reps N]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
                    [--min-passes N] [--max-passes N] [--out FILE.md]
@@ -45,6 +49,7 @@ fn main() -> Result<()> {
         Some("cornell") => cornell::run(&args[1..]),
         Some("rays") => rays::run(&args[1..]),
         Some("manylights") => manylights::run(&args[1..]),
+        Some("envmap") => envmap::run(&args[1..]),
         Some("help") => {
             println!("{USAGE}");
             Ok(())

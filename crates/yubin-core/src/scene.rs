@@ -641,6 +641,11 @@ impl SceneBuilder {
         self.materials.images.len() as u32 - 1
     }
 
+    /// The image at `index`, to check or fix before the scene is built.
+    pub fn image_mut(&mut self, index: u32) -> Option<&mut TexImage> {
+        self.materials.images.get_mut(index as usize)
+    }
+
     /// The BSDF at `index`, if there is one (what a front end built).
     pub fn bsdf(&self, index: u32) -> Option<&Bsdf> {
         self.materials.bsdfs.get(index as usize)

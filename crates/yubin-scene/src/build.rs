@@ -460,6 +460,24 @@ impl Builder<'_> {
         Ok(g)
     }
 
+    /// An `envmap`'s image must be lat-long; bad texels become 0 (warned).
+    fn check_envmap_image(&mut self, obj: &Object, image: u32) -> Result<(), SceneError> {
+        let Some(img) = self.sb.image_mut(image) else {
+            return Ok(());
+        };
+        let loc = obj.loc_of("filename");
+        match yubin_core::light::EnvMapLight::prepare_image(img) {
+            Err(msg) => Err(SceneError::at(loc, format!("envmap: {msg}"))),
+            Ok(0) => Ok(()),
+            Ok(n) => {
+                self.warnings.push(format!(
+                    "{loc}: envmap: {n} texel values were negative, NaN or infinite and read as 0"
+                ));
+                Ok(())
+            }
+        }
+    }
+
     fn emitter(&mut self, obj: &Object) -> Result<(), SceneError> {
         if obj.plugin_type == "area" {
             if obj.id.is_some() {
@@ -478,6 +496,9 @@ impl Builder<'_> {
         let mut p = ObjParams { obj, b: self };
         let options = EmitterOptions::from_params(&mut p)?;
         let e = build(&mut p)?;
+        if let yubin_core::light::Emitter::EnvMap(env) = e {
+            self.check_envmap_image(obj, env.image)?;
+        }
         let index = self.sb.add_emitter(e);
         self.sb.set_emitter_options(index, options);
         Ok(())

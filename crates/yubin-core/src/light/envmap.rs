@@ -38,6 +38,10 @@
 //! Compensation: Optimizing Sampling Techniques in Multiple Importance
 //! Sampling", ACM TOG 38(6)).
 //!
+//! **Bad maps.** An image that is not twice as wide as tall (within 2 %)
+//! is a load error, since it cannot be latitude–longitude; negative and
+//! NaN or infinite texels are read as 0, with a warning that counts them.
+//!
 //! **Adding one to a scene**: `from_params` (or [`EnvMapLight::new`]) gives
 //! an [`Emitter::EnvMap`](super::Emitter::EnvMap) that names its image in
 //! [`Materials::images`](crate::material::Materials::images); pass it to
@@ -47,7 +51,7 @@
 
 use super::{EmitterContext, EmitterModel, EmitterSample};
 use crate::params::{ParamError, Params};
-use crate::sampling::Distribution2D;
+use crate::sampling::{Distribution1D, Distribution2D};
 use crate::spectrum::luminance;
 use crate::texture::TexImage;
 use crate::Rgb;
@@ -110,6 +114,31 @@ impl EnvMapLight {
         Ok(Self::new(image, scale, linear.as_mat3(), mis_compensation))
     }
 
+    /// Checks that `img` can be a latitude–longitude map and makes its
+    /// texels valid radiances: the width must be twice the height (within
+    /// 2 %; cube maps and angular maps are not lat-long), and texels that
+    /// are negative or not finite read as 0. Returns how many texels were
+    /// set to 0, or why the image cannot be a map.
+    pub fn prepare_image(img: &mut TexImage) -> Result<usize, String> {
+        let (w, h) = (img.width, img.height);
+        let aspect = w as f32 / h.max(1) as f32;
+        if h < 2 || (aspect / 2.0 - 1.0).abs() > 0.02 {
+            return Err(format!(
+                "the image is {w}×{h}; a latitude–longitude environment map is twice as wide as it is tall (convert cube or angular maps first)"
+            ));
+        }
+        let mut fixed = 0;
+        if let crate::texture::image::ImageData::F32(data) = &mut img.data {
+            for v in data.iter_mut() {
+                if !(v.is_finite() && *v >= 0.0) {
+                    *v = 0.0;
+                    fixed += 1;
+                }
+            }
+        }
+        Ok(fixed)
+    }
+
     /// The image's (u, v) of a unit direction in the map's frame.
     #[inline]
     fn uv_of(d: Vec3) -> Vec2 {
@@ -160,45 +189,63 @@ impl EnvMapLight {
     /// sample column c to c + 1 and row r to r + 1, so it starts half a
     /// texel to the right of u = c / W.
     pub fn sampling_distribution(&self, img: &TexImage) -> Distribution2D {
+        use rayon::prelude::*;
         let (w, h) = (img.width as usize, img.height as usize);
         let rows = h.saturating_sub(1).max(1);
-        let lum: Vec<f32> = (0..w * h)
-            .map(|i| luminance(img.texel((i % w) as u32, (i / w) as u32, true).truncate()))
-            .collect();
-        let mut patch = Vec::with_capacity(w * rows);
-        let mut sin_theta = Vec::with_capacity(rows);
-        for r in 0..rows {
-            let r1 = (r + 1).min(h - 1);
-            sin_theta.push((PI * (r as f32 + 0.5) / rows as f32).sin());
-            for c in 0..w {
-                let c1 = (c + 1) % w;
-                let sum = lum[r * w + c] + lum[r * w + c1] + lum[r1 * w + c] + lum[r1 * w + c1];
-                patch.push(0.25 * sum);
-            }
-        }
-        let weights = |offset: f32| -> Vec<f32> {
-            patch
-                .iter()
-                .enumerate()
-                .map(|(i, &l)| (l - offset).max(0.0) * sin_theta[i / w])
+        // Row by row in parallel: a 4096 × 2048 map has 8 M texels.
+        let mut lum = vec![0.0f32; w * h];
+        let channels = img.channels as usize;
+        lum.par_chunks_mut(w)
+            .enumerate()
+            .for_each(|(y, row)| match &img.data {
+                // Float RGB(A) rows read straight from memory (the common HDR case).
+                crate::texture::image::ImageData::F32(data) if channels >= 3 => {
+                    let texels = &data[y * w * channels..(y + 1) * w * channels];
+                    for (l, t) in row.iter_mut().zip(texels.chunks_exact(channels)) {
+                        *l = luminance(Rgb::new(t[0], t[1], t[2]));
+                    }
+                }
+                _ => {
+                    for (x, l) in row.iter_mut().enumerate() {
+                        *l = luminance(img.texel(x as u32, y as u32, true).truncate());
+                    }
+                }
+            });
+        let sin_theta = |r: usize| (PI * (r as f32 + 0.5) / rows as f32).sin();
+        // Mean luminance of the patch from sample (c, r) to (c + 1, r + 1).
+        let patch = |r: usize, c: usize| {
+            let (r1, c1) = ((r + 1).min(h - 1), (c + 1) % w);
+            0.25 * (lum[r * w + c] + lum[r * w + c1] + lum[r1 * w + c] + lum[r1 * w + c1])
+        };
+        let build = |offset: f32| -> Vec<Distribution1D> {
+            (0..rows)
+                .into_par_iter()
+                .map(|r| {
+                    let s = sin_theta(r);
+                    let weights: Vec<f32> = (0..w)
+                        .map(|c| (patch(r, c) - offset).max(0.0) * s)
+                        .collect();
+                    Distribution1D::from_vec(weights)
+                })
                 .collect()
         };
         if self.mis_compensation {
             // The mean over solid angle, which the sin θ weights measure.
-            let (sum, area) = patch
-                .iter()
-                .enumerate()
-                .fold((0.0f64, 0.0f64), |acc, (i, &l)| {
-                    let s = sin_theta[i / w] as f64;
-                    (acc.0 + l.max(0.0) as f64 * s, acc.1 + s)
-                });
-            let compensated = weights((sum / area) as f32);
+            let (sum, area) = (0..rows)
+                .into_par_iter()
+                .map(|r| {
+                    let s = sin_theta(r) as f64;
+                    let row: f64 = (0..w).map(|c| patch(r, c).max(0.0) as f64).sum();
+                    (row * s, s * w as f64)
+                })
+                .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+            let compensated = build((sum / area) as f32);
             // A map that is its mean everywhere has nothing left: keep it.
-            if compensated.iter().any(|&x| x > 0.0) {
-                return Distribution2D::new(&compensated, w, rows);
+            if compensated.iter().any(|d| d.integral() > 0.0) {
+                return Distribution2D::from_rows(compensated);
             }
         }
-        Distribution2D::new(&weights(0.0), w, rows)
+        Distribution2D::from_rows(build(0.0))
     }
 
     /// Radiance along world direction `wi` and the solid-angle density of

@@ -25,24 +25,35 @@ impl Distribution1D {
     /// # Panics
     /// When `weights` is empty.
     pub fn new(weights: &[f32]) -> Self {
-        assert!(!weights.is_empty(), "a distribution needs a weight");
-        let n = weights.len();
-        let func: Vec<f32> = weights
-            .iter()
-            .map(|&w| if w.is_finite() && w > 0.0 { w } else { 0.0 })
-            .collect();
+        Self::from_vec(weights.to_vec())
+    }
+
+    /// [`Distribution1D::new`] that keeps the weights' storage.
+    ///
+    /// # Panics
+    /// When `weights` is empty.
+    pub fn from_vec(mut func: Vec<f32>) -> Self {
+        assert!(!func.is_empty(), "a distribution needs a weight");
+        let n = func.len();
+        for w in &mut func {
+            if !(w.is_finite() && *w > 0.0) {
+                *w = 0.0;
+            }
+        }
         // Summed in f64 so that a 4k row's CDF does not drift; the last
         // entry is set to exactly 1 so that `sample` cannot run off the end.
-        let mut cdf = Vec::with_capacity(n + 1);
-        let mut sum = 0.0f64;
-        cdf.push(0.0);
-        for &f in &func {
-            sum += f as f64;
-            cdf.push(sum);
-        }
+        // (The sum is taken twice rather than stored in f64.)
+        let sum: f64 = func.iter().map(|&f| f as f64).sum();
         let integral = sum / n as f64;
         let cdf = if sum > 0.0 {
-            cdf.iter().map(|&c| (c / sum) as f32).collect()
+            let inv = 1.0 / sum;
+            let mut running = 0.0f64;
+            std::iter::once(0.0)
+                .chain(func.iter().map(|&f| {
+                    running += f as f64;
+                    (running * inv) as f32
+                }))
+                .collect()
         } else {
             (0..=n).map(|i| i as f32 / n as f32).collect()
         };
@@ -135,6 +146,14 @@ impl Distribution2D {
             .chunks_exact(width)
             .map(Distribution1D::new)
             .collect();
+        Self::from_rows(conditional)
+    }
+
+    /// From its rows' distributions (all of one length, at least one).
+    ///
+    /// # Panics
+    /// When `conditional` is empty.
+    pub fn from_rows(conditional: Vec<Distribution1D>) -> Self {
         let row_integrals: Vec<f32> = conditional.iter().map(|c| c.integral()).collect();
         Self {
             marginal: Distribution1D::new(&row_integrals),
