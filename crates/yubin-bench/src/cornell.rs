@@ -122,14 +122,18 @@ pub fn run(args: &[String]) -> Result<()> {
 }
 
 fn rel_mse(a: &Image, b: &Image) -> f64 {
-    let n = a.width * a.height;
+    rel_mse_rgb(&a.data, a.channels, &b.data, b.channels)
+}
+
+/// relMSE of the RGB of image `a` against `b` (pixels interleaved,
+/// `a_channels` / `b_channels` values each): the mean over pixels and
+/// channels of (a − b)² / (b² + 0.01).
+pub(crate) fn rel_mse_rgb(a: &[f32], a_channels: usize, b: &[f32], b_channels: usize) -> f64 {
+    let n = b.len() / b_channels;
     let mut sum = 0.0;
     for i in 0..n {
         for c in 0..3 {
-            let (x, y) = (
-                a.data[i * a.channels + c] as f64,
-                b.data[i * b.channels + c] as f64,
-            );
+            let (x, y) = (a[i * a_channels + c] as f64, b[i * b_channels + c] as f64);
             sum += (x - y) * (x - y) / (y * y + 0.01);
         }
     }

@@ -79,16 +79,7 @@ fn scene_xml(res: u32) -> String {
 }
 
 fn rel_mse(a: &Image, b: &Image) -> f64 {
-    let n = (a.width * a.height) as usize;
-    let mut sum = 0.0;
-    for i in 0..n {
-        for c in 0..3 {
-            let x = a.data[i * a.channels + c] as f64;
-            let y = b.data[i * b.channels + c] as f64;
-            sum += (x - y) * (x - y) / (y * y + 0.01);
-        }
-    }
-    sum / (3 * n) as f64
+    crate::cornell::rel_mse_rgb(&a.data, a.channels, &b.data, b.channels)
 }
 
 /// Loads and renders the scene with `sampler` at `spp`: image and seconds

@@ -231,12 +231,11 @@ impl LightBvh {
             let before = leaves.len();
             let split = push_bounds(e, i, ctx, radius, &mut leaves);
             bvh.split[i as usize] = split;
-            bvh.first_trail[i as usize] = trail_count;
-            trail_count += if split {
-                prim_count(e, ctx)
-            } else {
-                (leaves.len() > before) as u32
-            };
+            // A light left out for having no power gets no trail slot.
+            if split || leaves.len() > before {
+                bvh.first_trail[i as usize] = trail_count;
+                trail_count += if split { prim_count(e, ctx) } else { 1 };
+            }
         }
         bvh.trails = vec![NO_TRAIL; trail_count as usize];
         if !leaves.is_empty() {
@@ -346,13 +345,7 @@ impl LightBvh {
                 }
                 return Some((self.lights[node.index as usize], pmf));
             }
-            let (a, b) = (i + 1, node.index as usize);
-            let ia = self.nodes[a].lb.importance(p, n);
-            let ib = self.nodes[b].lb.importance(p, n);
-            if ia + ib <= 0.0 {
-                return None;
-            }
-            let pa = ia / (ia + ib);
+            let (a, b, pa) = self.children(i, p, n)?;
             if u < pa {
                 u = (u / pa).min(ONE_MINUS_EPS);
                 pmf *= pa;
@@ -363,6 +356,16 @@ impl LightBvh {
                 i = b;
             }
         }
+    }
+
+    /// The children of interior node `i` and the probability of taking
+    /// the first at (`p`, `n`); `None` when neither has any importance.
+    #[inline]
+    fn children(&self, i: usize, p: Vec3, n: Vec3) -> Option<(usize, usize, f32)> {
+        let (a, b) = (i + 1, self.nodes[i].index as usize);
+        let ia = self.nodes[a].lb.importance(p, n);
+        let ib = self.nodes[b].lb.importance(p, n);
+        (ia + ib > 0.0).then(|| (a, b, ia / (ia + ib)))
     }
 
     /// Probability that [`LightBvh::sample`] at (`p`, `n`) chooses `light`.
@@ -389,17 +392,14 @@ impl LightBvh {
                     0.0
                 };
             }
-            let (a, b) = (i + 1, node.index as usize);
-            let ia = self.nodes[a].lb.importance(p, n);
-            let ib = self.nodes[b].lb.importance(p, n);
-            if ia + ib <= 0.0 {
+            let Some((a, b, pa)) = self.children(i, p, n) else {
                 return 0.0;
-            }
+            };
             if trail >> depth & 1 == 0 {
-                pmf *= ia / (ia + ib);
+                pmf *= pa;
                 i = a;
             } else {
-                pmf *= ib / (ia + ib);
+                pmf *= 1.0 - pa;
                 i = b;
             }
         }

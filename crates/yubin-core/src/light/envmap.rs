@@ -315,7 +315,6 @@ impl EmitterModel for EnvMapLight {
 mod tests {
     use super::*;
     use crate::light::{ConstantLight, Emitter};
-    use crate::testing::chi2::{chi2_directions, Chi2Config};
     use crate::texture::image::ImageData;
 
     /// The 8 × 4 image the Mitsuba values below were computed on.
@@ -443,23 +442,7 @@ mod tests {
         let dists = with_distribution(&mut light, &img);
         let images = [img];
         let ctx = context(&images, &dists);
-        chi2_directions(
-            &Chi2Config {
-                cos_theta_bins: 30,
-                phi_bins: 60,
-                samples: 400_000,
-                // The density steps inside bins; integrate it finely.
-                integration_res: 32,
-                ..Chi2Config::default()
-            },
-            |r| {
-                light
-                    .sample_direction(&ctx, Vec3::ZERO, r.next_2d())
-                    .map(|s| (s.wi, s.pdf))
-            },
-            |wi| light.pdf_direction(&ctx, Vec3::ZERO, Vec3::ZERO, Vec3::Z, wi),
-        )
-        .unwrap();
+        crate::light::chi2_environment(&light, &ctx);
     }
 
     #[test]

@@ -283,3 +283,27 @@ impl Emitter {
         )
     }
 }
+
+/// Chi-square test of an emitter at infinity's direction sampling seen
+/// from the origin (its density steps inside bins, so it is integrated
+/// finely). Shared by the environment emitters' tests.
+#[cfg(test)]
+pub(crate) fn chi2_environment(light: &impl EmitterModel, ctx: &EmitterContext) {
+    use crate::testing::chi2::{chi2_directions, Chi2Config};
+    chi2_directions(
+        &Chi2Config {
+            cos_theta_bins: 30,
+            phi_bins: 60,
+            samples: 400_000,
+            integration_res: 32,
+            ..Chi2Config::default()
+        },
+        |r| {
+            light
+                .sample_direction(ctx, Vec3::ZERO, r.next_2d())
+                .map(|s| (s.wi, s.pdf))
+        },
+        |wi| light.pdf_direction(ctx, Vec3::ZERO, Vec3::ZERO, Vec3::Z, wi),
+    )
+    .unwrap();
+}

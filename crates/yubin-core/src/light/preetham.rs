@@ -655,7 +655,6 @@ impl EmitterModel for PreethamLight {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::chi2::{chi2_directions, Chi2Config};
     use crate::testing::params::{MapParams, Value};
 
     fn context(dists: &[Distribution2D]) -> EmitterContext<'_> {
@@ -673,22 +672,7 @@ mod tests {
     fn chi2(mut light: PreethamLight) {
         let dists = with_distribution(&mut light);
         let ctx = context(&dists);
-        chi2_directions(
-            &Chi2Config {
-                cos_theta_bins: 30,
-                phi_bins: 60,
-                samples: 400_000,
-                integration_res: 32,
-                ..Chi2Config::default()
-            },
-            |r| {
-                light
-                    .sample_direction(&ctx, Vec3::ZERO, r.next_2d())
-                    .map(|s| (s.wi, s.pdf))
-            },
-            |wi| light.pdf_direction(&ctx, Vec3::ZERO, Vec3::ZERO, Vec3::Z, wi),
-        )
-        .unwrap();
+        crate::light::chi2_environment(&light, &ctx);
     }
 
     fn sun_at(el: f64, az: f64) -> Vec3 {
