@@ -127,6 +127,17 @@ class SceneFiles:
                 return os.path.normpath(p)
         return None
 
+    def search_dir(self, value, here):
+        """The folder a <path value=> names: as Mitsuba's file resolver
+        does, a relative value is looked up in the search folders so far
+        (the main scene's first), then next to the declaring file."""
+        value = self.subst(value)
+        for d in [*self.search, here]:
+            p = os.path.normpath(os.path.join(d, value))
+            if os.path.isdir(p):
+                return p
+        return os.path.normpath(os.path.join(here, value))
+
     def _visit(self, path, stack):
         if path in stack:
             raise ToolError(f"include cycle at {path}")
@@ -142,7 +153,7 @@ class SceneFiles:
             if tag == "default" and "name" in el.attrib:
                 self.defaults.setdefault(el.get("name"), el.get("value", ""))
             elif tag == "path" and "value" in el.attrib:
-                d = os.path.normpath(os.path.join(here, self.subst(el.get("value"))))
+                d = self.search_dir(el.get("value"), here)
                 if d not in self.search:
                     self.search.append(d)
             elif tag == "include" and "filename" in el.attrib:
@@ -247,7 +258,7 @@ def write_copy(files, tmpdir, size, strip_legacy, extra_paths=()):
         def abs_path(m):
             v = m.group(2)
             if "$" not in v:
-                v = os.path.normpath(os.path.join(here, v))
+                v = files.search_dir(v, here)
             return f'{m.group(1)}"{v}"'
         text = _sub_outside_comments(r"(<path\s+value\s*=\s*)" + attr, abs_path, text)
 

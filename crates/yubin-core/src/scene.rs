@@ -945,7 +945,7 @@ impl SceneBuilder {
             g.bvh = bvh;
         }
         let light_distributions =
-            crate::light::build_distributions(&mut self.emitters, &self.materials.images).map_err(
+            crate::light::build_distributions(&mut self.emitters, &self.materials).map_err(
                 |index| BuildError::BadIndex {
                     what: "image",
                     index,

@@ -301,11 +301,27 @@ impl Parser {
     fn add_search_path(&mut self, src: &Source, el: Node) -> Result<(), SceneError> {
         src.check_attributes(el, &["value"])?;
         let value = self.required(src, el, "value")?.value;
-        let dir = src.dir.join(value);
+        let dir = self.search_dir(src, &value);
         if !self.search_paths.contains(&dir) {
             self.search_paths.push(dir);
         }
         Ok(())
+    }
+
+    /// The folder a `<path value=>` names. As in Mitsuba, a relative value
+    /// is looked up like a file (the main scene's folder, then the folders
+    /// added so far), so an included file's `<path>` may be relative to the
+    /// main scene; failing that, it is relative to the declaring file.
+    fn search_dir(&self, src: &Source, value: &str) -> PathBuf {
+        let own = src.dir.join(value);
+        if Path::new(value).is_absolute() {
+            return own;
+        }
+        self.search_paths
+            .iter()
+            .map(|d| d.join(value))
+            .find(|d| d.is_dir())
+            .unwrap_or(own)
     }
 
     /// `<alias id= as=>`: a second id for an object declared earlier.

@@ -3,7 +3,8 @@
 
 mod perspective;
 
-pub use perspective::{FovAxis, Perspective};
+pub(crate) use perspective::{field_of_view, image_plane_half_extent};
+pub use perspective::{FovAxis, Perspective, SensorSample};
 
 use crate::film::Film;
 use crate::math::Ray;
@@ -65,6 +66,30 @@ pub enum Camera {
 }
 
 impl Camera {
+    /// Connects the camera to the world point `p` (for paths traced from
+    /// the lights); `None` when `p` is not seen.
+    #[inline]
+    pub fn sample_towards(&self, p: glam::Vec3) -> Option<SensorSample> {
+        match self {
+            Camera::Perspective(c) => c.sample_towards(p),
+        }
+    }
+
+    /// The camera's position (its pinhole).
+    pub fn position(&self) -> glam::Vec3 {
+        match self {
+            Camera::Perspective(c) => c.position(),
+        }
+    }
+
+    /// Ray directions' density for uniform film positions (see
+    /// [`Perspective::pdf_direction`]).
+    pub fn pdf_direction(&self, d: glam::Vec3) -> f32 {
+        match self {
+            Camera::Perspective(c) => c.pdf_direction(d),
+        }
+    }
+
     /// The primary ray through film position `film_p`; `_u_lens` is for
     /// cameras with an aperture.
     #[inline]

@@ -45,6 +45,7 @@ pub enum FovAxis {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Perspective {
     to_world: Affine3A,
+    to_local: Affine3A,
     /// tan(fov_x / 2) and tan(fov_y / 2).
     tan_half: Vec2,
     resolution: Vec2,
@@ -94,25 +95,11 @@ impl Perspective {
         near_clip: f32,
         far_clip: f32,
     ) -> Self {
-        let (w, h) = (width as f32, height as f32);
-        let t = (fov_degrees.to_radians() * 0.5).tan();
-        // The film plane at distance 1 spans [-tx, tx] × [-ty, ty].
-        let (tx, ty) = match axis {
-            FovAxis::X => (t, t * h / w),
-            FovAxis::Y => (t * w / h, t),
-            FovAxis::Diagonal => {
-                let d = (w * w + h * h).sqrt();
-                (t * w / d, t * h / d)
-            }
-            FovAxis::Smaller if w <= h => (t, t * h / w),
-            FovAxis::Smaller => (t * w / h, t),
-            FovAxis::Larger if w >= h => (t, t * h / w),
-            FovAxis::Larger => (t * w / h, t),
-        };
         Self {
             to_world,
-            tan_half: Vec2::new(tx, ty),
-            resolution: Vec2::new(w, h),
+            to_local: to_world.inverse(),
+            tan_half: image_plane_half_extent(fov_degrees, axis, width, height),
+            resolution: Vec2::new(width as f32, height as f32),
             near_clip,
             far_clip,
         }
@@ -140,9 +127,107 @@ impl Perspective {
     }
 }
 
+impl Perspective {
+    /// The camera's position.
+    pub fn position(&self) -> Vec3 {
+        self.to_world.translation.into()
+    }
+
+    /// Density per solid angle of the directions [`Perspective::generate_ray`]
+    /// takes for film positions uniform over the image: 1 / (A cos³θ), with
+    /// A = 4 tx ty the image plane's area at distance 1 and θ the angle
+    /// from the view axis (dA = dω / cos³θ on that plane); 0 outside the
+    /// frustum. Times the pixel count, it is the camera's importance: the
+    /// weight that turns radiance arriving along `d` into its contribution
+    /// per unit of film area (in pixels).
+    pub fn pdf_direction(&self, d: Vec3) -> f32 {
+        let local = self.to_local.transform_vector3(d).normalize_or_zero();
+        match self.local_to_film(local) {
+            Some(_) => 1.0 / (4.0 * self.tan_half.x * self.tan_half.y * local.z.powi(3)),
+            None => 0.0,
+        }
+    }
+
+    /// The film position (pixels of the full image) that sees the local
+    /// direction `local`, if any.
+    fn local_to_film(&self, local: Vec3) -> Option<Vec2> {
+        if local.z <= 0.0 {
+            return None;
+        }
+        let plane = Vec2::new(local.x, local.y) / (local.z * self.tan_half);
+        let ndc = 0.5 * (Vec2::ONE - plane);
+        (ndc.cmpge(Vec2::ZERO).all() && ndc.cmplt(Vec2::ONE).all()).then(|| ndc * self.resolution)
+    }
+
+    /// Connects the camera to the world point `p`: where `p` appears on the
+    /// film and the importance of that direction (see
+    /// [`Perspective::pdf_direction`]); `None` when `p` is outside the
+    /// frustum or the clip range.
+    pub fn sample_towards(&self, p: Vec3) -> Option<SensorSample> {
+        let local = self.to_local.transform_point3(p);
+        if !(local.z >= self.near_clip && local.z <= self.far_clip) {
+            return None;
+        }
+        let dir = local.normalize();
+        let film_p = self.local_to_film(dir)?;
+        let importance = self.resolution.x * self.resolution.y
+            / (4.0 * self.tan_half.x * self.tan_half.y * dir.z.powi(3));
+        let world_to_camera = self.position() - p;
+        let dist = world_to_camera.length();
+        Some(SensorSample {
+            film_p,
+            wi: world_to_camera / dist,
+            dist,
+            importance,
+        })
+    }
+}
+
+/// The camera seen from a point: where the point lands on the film and
+/// with what weight.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorSample {
+    /// Film position in pixels of the full image.
+    pub film_p: Vec2,
+    /// Unit direction from the point towards the camera.
+    pub wi: Vec3,
+    /// Distance from the point to the camera.
+    pub dist: f32,
+    /// Importance per unit solid angle at the camera, in pixels of film
+    /// area per steradian: radiance along `wi` times it is the film
+    /// density of the contribution.
+    pub importance: f32,
+}
+
+/// Half the width and height (tan(fov_x / 2), tan(fov_y / 2)) of the
+/// image plane at distance 1 of a `width`×`height` image whose field of
+/// view is `fov_degrees` along `axis`.
+pub(crate) fn image_plane_half_extent(
+    fov_degrees: f32,
+    axis: FovAxis,
+    width: u32,
+    height: u32,
+) -> Vec2 {
+    let (w, h) = (width as f32, height as f32);
+    let t = (fov_degrees.to_radians() * 0.5).tan();
+    let (tx, ty) = match axis {
+        FovAxis::X => (t, t * h / w),
+        FovAxis::Y => (t * w / h, t),
+        FovAxis::Diagonal => {
+            let d = (w * w + h * h).sqrt();
+            (t * w / d, t * h / d)
+        }
+        FovAxis::Smaller if w <= h => (t, t * h / w),
+        FovAxis::Smaller => (t * w / h, t),
+        FovAxis::Larger if w >= h => (t, t * h / w),
+        FovAxis::Larger => (t * w / h, t),
+    };
+    Vec2::new(tx, ty)
+}
+
 /// `fov` along `fov_axis`, or, without `fov`, the diagonal field of view
 /// of a 35 mm-equivalent `focal_length` (default "50mm"), as Mitsuba does.
-fn field_of_view(p: &mut dyn Params) -> Result<(f32, FovAxis), ParamError> {
+pub(crate) fn field_of_view(p: &mut dyn Params) -> Result<(f32, FovAxis), ParamError> {
     let axis = match p.string_or("fov_axis", "x")?.as_str() {
         "x" => FovAxis::X,
         "y" => FovAxis::Y,
@@ -212,6 +297,64 @@ mod tests {
         // The top edge is +y, with the aspect ratio applied.
         let top = c.generate_ray(Vec2::new(100.0, 0.0));
         assert!((top.d - Vec3::new(0.0, 0.5, 1.0).normalize()).length() < 1e-6);
+    }
+
+    #[test]
+    fn sample_towards_inverts_generate_ray() {
+        let to_world = Affine3A::from_translation(Vec3::new(1.0, 2.0, 3.0))
+            * Affine3A::from_rotation_y(0.4)
+            * Affine3A::from_rotation_x(-0.2);
+        let c = Perspective::new(to_world, 50.0, FovAxis::Y, 64, 48, 0.01, 1e4);
+        for film_p in [
+            Vec2::new(3.5, 40.25),
+            Vec2::new(32.0, 24.0),
+            Vec2::new(60.0, 1.0),
+        ] {
+            let r = c.generate_ray(film_p);
+            let s = c.sample_towards(r.at(7.0)).unwrap();
+            assert!(
+                (s.film_p - film_p).length() < 1e-3,
+                "{film_p} vs {}",
+                s.film_p
+            );
+            assert!((s.wi + r.d).length() < 1e-5 && (s.dist - 7.0).abs() < 1e-4);
+            let expected = 64.0 * 48.0 * c.pdf_direction(r.d);
+            assert!((s.importance / expected - 1.0).abs() < 1e-5);
+        }
+        // Behind the camera and beyond the image's edge: no connection.
+        assert!(c
+            .sample_towards(c.generate_ray(Vec2::new(3.0, 3.0)).at(-2.0))
+            .is_none());
+        let wide = c.generate_ray(Vec2::new(0.0, 24.0));
+        let outside = to_world.transform_point3(Vec3::new(10.0, 0.0, 1.0));
+        assert!(c.sample_towards(outside).is_none() && wide.d.is_finite());
+    }
+
+    /// The camera's importance, as a density of ray directions, is the
+    /// density that uniform film positions give `generate_ray`'s rays.
+    #[test]
+    fn chi2_camera_ray_directions_follow_pdf_direction() {
+        use crate::testing::chi2::{chi2_directions, Chi2Config};
+        let to_world = Affine3A::from_rotation_y(0.9) * Affine3A::from_rotation_x(0.3);
+        for (fov, axis, w, h) in [
+            (70.0, FovAxis::X, 40, 30),
+            (100.0, FovAxis::Diagonal, 20, 50),
+        ] {
+            let c = Perspective::new(to_world, fov, axis, w, h, 0.01, 1e4);
+            let res = Vec2::new(w as f32, h as f32);
+            chi2_directions(
+                &Chi2Config {
+                    integration_res: 16,
+                    ..Chi2Config::default()
+                },
+                |r| {
+                    let d = c.generate_ray(r.next_2d() * res).d;
+                    Some((d, c.pdf_direction(d)))
+                },
+                |d| c.pdf_direction(d),
+            )
+            .unwrap();
+        }
     }
 
     #[test]

@@ -513,6 +513,17 @@ fn push_bounds(
                 two_sided: false,
             },
         ),
+        Emitter::Projector(l) => push(
+            whole,
+            LightBounds {
+                bounds: Bounds3::from_point(l.to_world.point(Vec3::ZERO)),
+                phi: e.power(ctx, radius),
+                w: l.to_world.vector(Vec3::Z).normalize(),
+                cos_theta_o: 1.0,
+                cos_theta_e: l.cos_half_diagonal(),
+                two_sided: false,
+            },
+        ),
         _ => {}
     }
     false

@@ -19,18 +19,22 @@ mod area;
 pub mod bvh;
 mod constant;
 mod directional;
+mod emission;
 mod envmap;
 mod point;
 mod preetham;
+mod projector;
 pub mod selection;
 mod spot;
 
 pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
+pub use emission::{EmissionSample, SceneSphere};
 pub use envmap::EnvMapLight;
 pub use point::PointLight;
 pub use preetham::PreethamLight;
+pub use projector::ProjectorLight;
 pub use selection::{EmitterOptions, LightChoice, LightSampler, LightSelection};
 pub use spot::SpotLight;
 
@@ -115,6 +119,8 @@ pub enum Emitter {
     Spot(SpotLight),
     /// `preetham`.
     Preetham(PreethamLight),
+    /// `projector`.
+    Projector(ProjectorLight),
 }
 
 /// Builds an emitter plugin from its parameters.
@@ -137,6 +143,9 @@ pub const PLUGINS: &[(&str, EmitterFromParams)] = &[
     ("preetham", |p| {
         Ok(Emitter::Preetham(PreethamLight::from_params(p)?))
     }),
+    ("projector", |p| {
+        Ok(Emitter::Projector(ProjectorLight::from_params(p)?))
+    }),
 ];
 
 /// What a texture needs of a point an emitter looks up: position, normal
@@ -155,15 +164,20 @@ pub(crate) fn uv_interaction(p: Vec3, n: Vec3, uv: Vec2) -> SurfaceInteraction {
 }
 
 /// Builds the sampling distributions that emitters keep in the scene
-/// (`Scene::light_distributions`) and points each emitter at its own;
+/// (`Scene::light_distributions`) and points each emitter at its own, and
+/// fits projectors to their image's aspect ratio;
 /// `SceneBuilder::build` calls it. Fails with the index of an image that
 /// is not in `images`.
 pub fn build_distributions(
     emitters: &mut [Emitter],
-    images: &[TexImage],
+    materials: &crate::material::Materials,
 ) -> Result<Vec<Distribution2D>, u32> {
+    let images = &materials.images;
     let mut distributions = Vec::new();
     for e in emitters {
+        if let Emitter::Projector(l) = e {
+            l.fit_image_plane(materials);
+        }
         if let Emitter::EnvMap(env) = e {
             let image = images.get(env.image as usize).ok_or(env.image)?;
             env.distribution = distributions.len() as u32;
@@ -187,6 +201,7 @@ macro_rules! dispatch {
             Emitter::EnvMap($l) => $e,
             Emitter::Spot($l) => $e,
             Emitter::Preetham($l) => $e,
+            Emitter::Projector($l) => $e,
         }
     };
 }
@@ -247,6 +262,7 @@ impl Emitter {
             }
             Emitter::Point(p) => 4.0 * PI * luminance(p.intensity),
             Emitter::Spot(s) => s.power(ctx),
+            Emitter::Projector(l) => l.power(ctx),
             Emitter::Directional(d) => disk * luminance(d.irradiance),
             Emitter::Constant(_) | Emitter::EnvMap(_) => disk * self.environment_integral(ctx),
             // The grid would miss the sun's disk: it is added in closed form.

@@ -176,6 +176,21 @@ impl Tex {
         }
     }
 
+    /// The pixel size of the image behind a `bitmap` texture; `None` for
+    /// constants and procedural textures.
+    pub fn resolution(&self, m: &Materials) -> Option<[u32; 2]> {
+        match *self {
+            Tex::Texture(t) => match m.textures.get(t as usize)? {
+                Texture::Bitmap(b) => {
+                    let img = m.images.get(b.image as usize)?;
+                    Some([img.width, img.height])
+                }
+                _ => None,
+            },
+            Tex::Const(_) => None,
+        }
+    }
+
     /// The constant value, if it is one.
     pub fn as_const(&self) -> Option<Rgb> {
         match *self {
