@@ -30,6 +30,9 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderOutput {
+    if let Some(tracer) = integrator.particle_tracer() {
+        return tracer.render(scene, settings, progress);
+    }
     let film = &scene.film;
     let crop = film.crop_size;
     let channels = integrator.channel_count();

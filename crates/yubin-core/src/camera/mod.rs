@@ -75,6 +75,15 @@ impl Camera {
         }
     }
 
+    /// The camera ray along the world direction `d` (unit), its film
+    /// position and importance; `None` outside the image.
+    #[inline]
+    pub fn ray_towards(&self, d: glam::Vec3) -> Option<(Ray, Vec2, f32)> {
+        match self {
+            Camera::Perspective(c) => c.ray_towards(d),
+        }
+    }
+
     /// The camera's position (its pinhole).
     pub fn position(&self) -> glam::Vec3 {
         match self {

@@ -159,6 +159,28 @@ impl Perspective {
         (ndc.cmpge(Vec2::ZERO).all() && ndc.cmplt(Vec2::ONE).all()).then(|| ndc * self.resolution)
     }
 
+    /// The camera ray in the world direction `d` (unit), with its clip
+    /// interval, the film position it comes from and its importance (as
+    /// in [`Perspective::sample_towards`]); `None` outside the image.
+    pub fn ray_towards(&self, d: Vec3) -> Option<(Ray, Vec2, f32)> {
+        let local = self.to_local.transform_vector3(d).normalize_or_zero();
+        let film_p = self.local_to_film(local)?;
+        let ray = Ray {
+            o: self.position(),
+            d,
+            t_min: self.near_clip / local.z,
+            t_max: self.far_clip / local.z,
+        };
+        Some((ray, film_p, self.importance(local)))
+    }
+
+    /// Pixels of film area per steradian at the unit local direction
+    /// `local`: the pixel count times [`Perspective::pdf_direction`].
+    fn importance(&self, local: Vec3) -> f32 {
+        self.resolution.x * self.resolution.y
+            / (4.0 * self.tan_half.x * self.tan_half.y * local.z.powi(3))
+    }
+
     /// Connects the camera to the world point `p`: where `p` appears on the
     /// film and the importance of that direction (see
     /// [`Perspective::pdf_direction`]); `None` when `p` is outside the
@@ -170,8 +192,7 @@ impl Perspective {
         }
         let dir = local.normalize();
         let film_p = self.local_to_film(dir)?;
-        let importance = self.resolution.x * self.resolution.y
-            / (4.0 * self.tan_half.x * self.tan_half.y * dir.z.powi(3));
+        let importance = self.importance(dir);
         let world_to_camera = self.position() - p;
         let dist = world_to_camera.length();
         Some(SensorSample {

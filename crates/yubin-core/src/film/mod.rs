@@ -177,6 +177,95 @@ impl TileBuffer {
     }
 }
 
+/// An RGB image that takes splats anywhere (paths traced from the lights
+/// land on any pixel). A splat at film position x adds
+/// value · h(x − pⱼ) / ∫ h(y − pⱼ) dy to each pixel j within the filter's
+/// reach, the integral taken over the full image: in expectation a pixel
+/// is then ∫ h L / ∫ h over the image, exactly what camera paths give
+/// (their Σ w L / Σ w), edge pixels included. Sums are kept in f64: a
+/// pixel may take millions of splats.
+#[derive(Clone, Debug)]
+pub struct SplatImage {
+    size: [u32; 2],
+    /// Crop window origin in the full image.
+    offset: [u32; 2],
+    /// Per crop column and row: 1 / ∫ h₁ over the full image's extent.
+    inv_norm: [Vec<f64>; 2],
+    data: Vec<f64>,
+}
+
+impl SplatImage {
+    /// A black image for the crop window of `film`.
+    pub fn new(film: &Film) -> Self {
+        let size = film.crop_size;
+        let inv_norm = [0, 1].map(|axis| {
+            (0..size[axis])
+                .map(|i| {
+                    let centre = (film.crop_offset[axis] + i) as f64 + 0.5;
+                    let full = [film.width, film.height][axis] as f64;
+                    1.0 / filter_integral(&film.filter, centre, full)
+                })
+                .collect()
+        });
+        Self {
+            size,
+            offset: film.crop_offset,
+            inv_norm,
+            data: vec![0.0; size[0] as usize * size[1] as usize * 3],
+        }
+    }
+
+    /// Adds `rgb` at `pos` (pixels of the full image, continuous).
+    pub fn splat(&mut self, filter: &Filter, pos: Vec2, rgb: [f32; 3]) {
+        let pos = pos - Vec2::new(self.offset[0] as f32, self.offset[1] as f32);
+        let r = filter.radius();
+        let span = |c: f32, n: u32| {
+            let lo = ((c - r - 0.5).ceil() as i64).max(0);
+            let hi = ((c + r - 0.5).floor() as i64).min(n as i64 - 1);
+            lo..=hi
+        };
+        for py in span(pos.y, self.size[1]) {
+            let wy = filter.eval_1d(py as f32 + 0.5 - pos.y) as f64 * self.inv_norm[1][py as usize];
+            if wy == 0.0 {
+                continue;
+            }
+            for px in span(pos.x, self.size[0]) {
+                let w = wy
+                    * filter.eval_1d(px as f32 + 0.5 - pos.x) as f64
+                    * self.inv_norm[0][px as usize];
+                let i = (py as usize * self.size[0] as usize + px as usize) * 3;
+                for (acc, v) in self.data[i..i + 3].iter_mut().zip(rgb) {
+                    *acc += w * v as f64;
+                }
+            }
+        }
+    }
+
+    /// The image scaled by `scale`, as a 3-channel framebuffer.
+    pub fn to_framebuffer(&self, scale: f64) -> Framebuffer {
+        Framebuffer {
+            width: self.size[0],
+            height: self.size[1],
+            channels: 3,
+            data: self.data.iter().map(|v| (v * scale) as f32).collect(),
+        }
+    }
+}
+
+/// ∫ h₁(y − centre) dy over [0, extent], by the midpoint rule on steps
+/// much finer than a pixel (exact for the box filter).
+fn filter_integral(filter: &Filter, centre: f64, extent: f64) -> f64 {
+    const STEPS_PER_PIXEL: usize = 256;
+    let r = filter.radius() as f64;
+    let (lo, hi) = ((centre - r).max(0.0), (centre + r).min(extent));
+    let n = ((hi - lo) * STEPS_PER_PIXEL as f64).ceil().max(1.0) as usize;
+    let dy = (hi - lo) / n as f64;
+    (0..n)
+        .map(|k| filter.eval_1d((lo + (k as f64 + 0.5) * dy - centre) as f32) as f64)
+        .sum::<f64>()
+        * dy
+}
+
 /// A rendered image: `channels` interleaved floats per pixel, rows top to
 /// bottom, plus the name of each channel group.
 #[derive(Clone, Debug, PartialEq)]
@@ -217,6 +306,38 @@ impl Framebuffer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Splats uniform over the film make every pixel of the crop window,
+    /// edges included, the splat density (as camera samples of a uniform
+    /// image would), whatever the filter.
+    #[test]
+    fn uniform_splats_give_a_uniform_image() {
+        for filter in [
+            Filter::Box,
+            Filter::Tent { radius: 1.3 },
+            Filter::Gaussian { stddev: 0.5 },
+        ] {
+            let mut film = Film::new(10, 8, filter);
+            film.crop_offset = [0, 3];
+            film.crop_size = [6, 5];
+            let mut img = SplatImage::new(&film);
+            // A fine grid of splats, 64 per pixel, each of value 1/64.
+            for j in 0..8 * 8 {
+                for i in 0..10 * 8 {
+                    let pos = Vec2::new((i as f32 + 0.5) / 8.0, (j as f32 + 0.5) / 8.0);
+                    img.splat(&filter, pos, [1.0 / 64.0, 2.0 / 64.0, 0.0]);
+                }
+            }
+            let fb = img.to_framebuffer(1.0);
+            for px in fb.data.chunks_exact(3) {
+                assert!((px[0] - 1.0).abs() < 0.02, "{filter:?}: {px:?}");
+                assert!(
+                    (px[1] - 2.0).abs() < 0.04 && px[2] == 0.0,
+                    "{filter:?}: {px:?}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn splat_weights_normalize_and_merge() {

@@ -205,7 +205,7 @@ impl AovIntegrator {
                     "an integrator nested in aov needs a name (it names its layer in the output)",
                 ));
             }
-            let integrator = super::from_params(child.as_mut())?;
+            let integrator = super::nested_from_params(child.as_mut(), "aov")?;
             nested.push((name, integrator));
         }
         let me = Self::new(aovs, nested);

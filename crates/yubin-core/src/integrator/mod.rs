@@ -12,12 +12,14 @@ mod aov;
 mod direct;
 mod moment;
 mod path;
+mod ptracer;
 
 pub use ao::AoIntegrator;
 pub use aov::{parse_aovs, AovIntegrator, AovKind};
 pub use direct::DirectIntegrator;
 pub use moment::MomentIntegrator;
 pub use path::PathIntegrator;
+pub use ptracer::ParticleTracer;
 
 /// Builds an integrator plugin from its parameters.
 pub type IntegratorFromParams = fn(&mut dyn Params) -> Result<Box<dyn Integrator>, ParamError>;
@@ -33,11 +35,27 @@ pub const PLUGINS: &[(&str, IntegratorFromParams)] = &[
     }),
     ("aov", |p| Ok(Box::new(AovIntegrator::from_params(p)?))),
     ("ao", |p| Ok(Box::new(AoIntegrator::from_params(p)?))),
+    ("ptracer", |p| Ok(Box::new(ParticleTracer::from_params(p)?))),
 ];
 
 /// Builds the integrator `p` describes, by its plugin type.
 pub fn from_params(p: &mut dyn Params) -> Result<Box<dyn Integrator>, ParamError> {
     plugin_of(p, "integrator", PLUGINS, None)?(p)
+}
+
+/// Builds an integrator nested in `parent` (which runs it per camera
+/// ray): anything but a particle tracer.
+pub(crate) fn nested_from_params(
+    p: &mut dyn Params,
+    parent: &str,
+) -> Result<Box<dyn Integrator>, ParamError> {
+    let integrator = from_params(p)?;
+    if integrator.particle_tracer().is_some() {
+        return Err(p.error(&format!(
+            "ptracer traces paths from the lights and cannot be nested in {parent}"
+        )));
+    }
+    Ok(integrator)
 }
 
 /// `max_depth`: −1 (unlimited) or a non-negative path length.
@@ -106,6 +124,13 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
     /// How the integrator wants emitters chosen for light sampling, if it
     /// says (`light_sampler`); the scene's default otherwise.
     fn light_selection(&self) -> Option<crate::light::LightSelection> {
+        None
+    }
+
+    /// The particle tracer, for integrators that trace paths from the
+    /// lights and so render through their own loop
+    /// ([`ParticleTracer::render`]) instead of per camera ray.
+    fn particle_tracer(&self) -> Option<&ParticleTracer> {
         None
     }
 
@@ -239,21 +264,12 @@ pub(crate) fn sample_light(
     max_crossings: u32,
 ) -> Rgb {
     use crate::bsdf::{BsdfContext, BsdfModel};
-    use crate::light::{Emitter, EmitterModel, LightChoice};
     let u_pick = sampler.next_1d();
     let u = sampler.next_2d();
     let Some((light, pick_pdf)) = scene.pick_light(u_pick, si.p, si.n) else {
         return Rgb::ZERO;
     };
-    let ctx = scene.emitter_context();
-    let emitter = &scene.emitters[light.emitter as usize];
-    let sample = match emitter {
-        Emitter::Area(a) if light.prim != LightChoice::WHOLE => {
-            a.sample_triangle_direction(&ctx, light.prim, si.p, u)
-        }
-        _ => emitter.sample_direction(&ctx, si.p, u),
-    };
-    let Some(ls) = sample else {
+    let Some(ls) = sample_chosen_light(scene, light, si.p, u) else {
         return Rgb::ZERO;
     };
     let bsdf_ctx = BsdfContext::default();
@@ -281,4 +297,23 @@ pub(crate) fn sample_light(
         power_heuristic(light_pdf * light_count_ratio, bsdf_pdf)
     };
     f * ls.radiance * (tr * w / light_pdf)
+}
+
+/// Samples the emitter (or the emitting triangle) `light` picked by the
+/// light sampler, as seen from `p`.
+pub(crate) fn sample_chosen_light(
+    scene: &Scene,
+    light: crate::light::LightChoice,
+    p: Vec3,
+    u: glam::Vec2,
+) -> Option<crate::light::EmitterSample> {
+    use crate::light::{Emitter, EmitterModel, LightChoice};
+    let ctx = scene.emitter_context();
+    let emitter = &scene.emitters[light.emitter as usize];
+    match emitter {
+        Emitter::Area(a) if light.prim != LightChoice::WHOLE => {
+            a.sample_triangle_direction(&ctx, light.prim, p, u)
+        }
+        _ => emitter.sample_direction(&ctx, p, u),
+    }
 }

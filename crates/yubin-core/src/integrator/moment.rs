@@ -33,7 +33,7 @@ impl MomentIntegrator {
             return Err(p.error("the moment integrator needs a nested integrator"));
         };
         Ok(Self {
-            nested: super::from_params(nested.as_mut())?,
+            nested: super::nested_from_params(nested.as_mut(), "moment")?,
         })
     }
 }

@@ -94,7 +94,7 @@ impl Emitter {
             }
             Emitter::Constant(_) | Emitter::EnvMap(_) | Emitter::Preetham(_) => {
                 let s = self.sample_direction(ctx, sphere.center, u_dir)?;
-                if !(s.pdf > 0.0) {
+                if s.pdf.is_nan() || s.pdf <= 0.0 {
                     return None;
                 }
                 let d = -s.wi;

@@ -1,0 +1,192 @@
+//! `ptracer` (paths from the lights) converges to the same image as `path`
+//! (paths from the camera) on scenes it can render — diffuse and rough
+//! surfaces, a rough glass sphere (refraction in importance mode), area,
+//! spot, projector, directional and environment lights — and its image is
+//! bit-identical on any thread count.
+//!
+//! Comparison: K independent renders of each integrator (seeds 0..K); per
+//! pixel and channel, Welch's t = (mean_pt − mean_path) / √(s²_pt/K +
+//! s²_path/K) must stay within a bound that a correct pair exceeds with
+//! probability below 10⁻⁴ per image, and the two images' means must agree
+//! within 4 standard errors. A missing factor (π, a cosine, η²) moves the
+//! mean by far more.
+
+use std::path::Path;
+use yubin_core::render::{render, RenderSettings};
+use yubin_scene::build::load_scene_str;
+
+const SIZE: u32 = 12;
+
+fn scene(integrator: &str, lights: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+<integrator type="{integrator}"><integer name="max_depth" value="6"/></integrator>
+<sensor type="perspective">
+  <float name="fov" value="50"/>
+  <transform name="to_world"><lookat origin="0, 1.2, 4" target="0, 0.3, 0" up="0, 1, 0"/></transform>
+  <film type="hdrfilm"><integer name="width" value="{SIZE}"/><integer name="height" value="{SIZE}"/>
+    <rfilter type="gaussian"/></film>
+</sensor>
+<bsdf type="diffuse" id="white"><rgb name="reflectance" value="0.7, 0.6, 0.5"/></bsdf>
+<shape type="rectangle">
+  <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+  <ref id="white"/>
+</shape>
+<shape type="rectangle">
+  <transform name="to_world"><scale value="3"/><translate z="-1.5"/></transform>
+  <bsdf type="roughconductor"><float name="alpha" value="0.3"/></bsdf>
+</shape>
+<shape type="sphere">
+  <point name="center" value="-0.6, 0.5, 0"/><float name="radius" value="0.5"/>
+  <bsdf type="roughdielectric"><float name="alpha" value="0.3"/></bsdf>
+</shape>
+<shape type="sphere">
+  <point name="center" value="0.7, 0.4, 0.3"/><float name="radius" value="0.4"/>
+  <bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.2, 0.5, 0.8"/></bsdf>
+</shape>
+{lights}
+</scene>"#
+    )
+}
+
+const AREA: &str = r#"<shape type="rectangle">
+  <transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/><translate y="2.5"/></transform>
+  <emitter type="area"><rgb name="radiance" value="8"/></emitter>
+</shape>"#;
+
+const DELTA_AND_INFINITE: &str = r#"<emitter type="spot">
+  <rgb name="intensity" value="20"/><float name="cutoff_angle" value="35"/>
+  <transform name="to_world"><lookat origin="1, 3, 1" target="0, 0, 0" up="0, 1, 0"/></transform>
+</emitter>
+<emitter type="projector">
+  <float name="fov" value="40"/><rgb name="irradiance" value="0.3, 0.6, 0.9"/>
+  <transform name="to_world"><lookat origin="-2, 2, 2" target="0, 0.3, 0" up="0, 1, 0"/></transform>
+</emitter>
+<emitter type="directional"><vector name="direction" value="0.3, -1, -0.4"/><rgb name="irradiance" value="0.8"/></emitter>
+<emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>"#;
+
+/// K renders (seeds 0..K) of `xml`: per pixel-channel mean and sample
+/// variance across the renders.
+fn renders(xml: &str, spp: u32, k: u32) -> (Vec<f64>, Vec<f64>) {
+    let loaded = load_scene_str(xml, Path::new("ptracer.xml"), &[]).unwrap();
+    let images: Vec<Vec<f32>> = (0..k)
+        .map(|seed| {
+            render(
+                &loaded.scene,
+                loaded.integrator.as_ref(),
+                &RenderSettings { spp, seed },
+                &|_| {},
+            )
+            .image
+            .data
+        })
+        .collect();
+    let n = images[0].len();
+    let mean: Vec<f64> = (0..n)
+        .map(|i| images.iter().map(|im| im[i] as f64).sum::<f64>() / k as f64)
+        .collect();
+    let var = (0..n)
+        .map(|i| {
+            images
+                .iter()
+                .map(|im| (im[i] as f64 - mean[i]).powi(2))
+                .sum::<f64>()
+                / (k - 1) as f64
+        })
+        .collect();
+    (mean, var)
+}
+
+fn assert_same_image(lights: &str, label: &str) {
+    const K: u32 = 16;
+    let (pt, pt_var) = renders(&scene("ptracer", lights), 48, K);
+    let (path, path_var) = renders(&scene("path", lights), 48, K);
+    // With 15 + 15 degrees of freedom a |t| beyond 7 has probability
+    // ~1e-7 per value: over 432 values, a correct pair fails 1 in 10⁴.
+    let mut worst = (0.0f64, 0usize);
+    for i in 0..pt.len() {
+        let se = ((pt_var[i] + path_var[i]) / K as f64).sqrt().max(1e-6);
+        let t = (pt[i] - path[i]).abs() / se;
+        if t > worst.0 {
+            worst = (t, i);
+        }
+    }
+    assert!(
+        worst.0 < 7.0,
+        "{label}: pixel {} channel {}: ptracer {} vs path {} (t = {:.1})",
+        worst.1 / 3,
+        worst.1 % 3,
+        pt[worst.1],
+        path[worst.1],
+        worst.0
+    );
+    // The images' means: the sum over pixels of each estimate.
+    let sum = |v: &[f64]| v.iter().sum::<f64>();
+    let se = ((sum(&pt_var) + sum(&path_var)) / K as f64).sqrt();
+    let (a, b) = (sum(&pt), sum(&path));
+    assert!(
+        (a - b).abs() < 4.0 * se,
+        "{label}: image sums ptracer {a} vs path {b} (standard error {se})"
+    );
+    assert!(a > 0.0 && b > 0.0);
+}
+
+#[test]
+fn ptracer_matches_path_with_an_area_light() {
+    assert_same_image(AREA, "area light");
+}
+
+#[test]
+fn ptracer_matches_path_with_delta_and_infinite_lights() {
+    assert_same_image(DELTA_AND_INFINITE, "spot, projector, directional, constant");
+}
+
+#[test]
+fn ptracer_image_is_the_same_on_any_thread_count() {
+    let xml = scene("ptracer", &format!("{AREA}\n{DELTA_AND_INFINITE}"));
+    let loaded = load_scene_str(&xml, Path::new("ptracer.xml"), &[]).unwrap();
+    let render_on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            render(
+                &loaded.scene,
+                loaded.integrator.as_ref(),
+                // More paths than one chunk, so that chunks are merged.
+                &RenderSettings { spp: 200, seed: 5 },
+                &|_| {},
+            )
+        })
+        .image
+        .data
+    };
+    let one = render_on(1);
+    for threads in [2, 3] {
+        let many = render_on(threads);
+        assert!(
+            one.iter()
+                .zip(&many)
+                .all(|(a, b)| a.to_bits() == b.to_bits()),
+            "1 and {threads} threads differ"
+        );
+    }
+}
+
+#[test]
+fn ptracer_cannot_be_nested() {
+    let xml = scene("aov", AREA).replace(
+        r#"<integrator type="aov"><integer name="max_depth" value="6"/></integrator>"#,
+        r#"<integrator type="aov"><string name="aovs" value="d:depth"/>
+<integrator type="ptracer" name="img"/></integrator>"#,
+    );
+    let Err(err) = load_scene_str(&xml, Path::new("nested.xml"), &[]) else {
+        panic!("a nested ptracer must be refused");
+    };
+    let err = err.to_string();
+    assert!(
+        err.contains("nested.xml:3") && err.contains("cannot be nested"),
+        "{err}"
+    );
+}
