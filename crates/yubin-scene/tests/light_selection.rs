@@ -82,30 +82,61 @@ fn path(light_sampler: &str) -> String {
     )
 }
 
+/// Image-mean of each channel over `K` renders (seeds 0..K) of `xml`: the
+/// mean and its standard error.
+fn image_means(xml: &str, spp: u32) -> ([f64; 3], [f64; 3]) {
+    const K: u32 = 8;
+    let loaded = load_scene_str(xml, Path::new("scene.xml"), &[]).unwrap();
+    let runs: Vec<[f64; 3]> = (0..K)
+        .map(|seed| {
+            let img = render(
+                &loaded.scene,
+                loaded.integrator.as_ref(),
+                &RenderSettings { spp, seed },
+                &|_| {},
+            )
+            .image
+            .data;
+            channel_means(&img, |_| true)
+        })
+        .collect();
+    let k = K as f64;
+    let mean = [0, 1, 2].map(|c| runs.iter().map(|r| r[c]).sum::<f64>() / k);
+    let se = [0, 1, 2].map(|c| {
+        let var = runs.iter().map(|r| (r[c] - mean[c]).powi(2)).sum::<f64>() / (k - 1.0);
+        (var / k).sqrt()
+    });
+    (mean, se)
+}
+
+/// Two estimates of the same image mean agree: |a − b| within 5 combined
+/// standard errors (with 7 + 7 degrees of freedom, a correct pair fails
+/// about 1 in 5000), and within 1 % (so that a noisy pair cannot pass
+/// everything).
+fn assert_same_means(label: &str, a: ([f64; 3], [f64; 3]), b: ([f64; 3], [f64; 3])) {
+    for c in 0..3 {
+        let se = (a.1[c].powi(2) + b.1[c].powi(2)).sqrt();
+        assert!(se < 0.003 * b.0[c], "{label}: too noisy to tell ({se})");
+        assert!(
+            (a.0[c] - b.0[c]).abs() < 5.0 * se,
+            "{label}: channel {c}: {} vs {} (standard error {se})",
+            a.0[c],
+            b.0[c]
+        );
+    }
+}
+
 #[test]
 fn every_light_sampler_converges_to_the_same_image() {
-    let reference = channel_means(&render_xml(&scene(&path("bvh"), ""), 4096), |_| true);
+    let reference = image_means(&scene(&path("bvh"), ""), 2048);
     for sampler in ["uniform", "power"] {
-        let m = channel_means(&render_xml(&scene(&path(sampler), ""), 4096), |_| true);
-        for c in 0..3 {
-            assert!(
-                (m[c] - reference[c]).abs() < 0.005 * reference[c],
-                "{sampler}: {m:?} vs bvh {reference:?}"
-            );
-        }
+        let m = image_means(&scene(&path(sampler), ""), 2048);
+        assert_same_means(sampler, m, reference);
     }
     // Uneven sampling weights change the noise, not the image.
     let weighted = r#"<float name="sampling_weight" value="5"/>"#;
-    let m = channel_means(
-        &render_xml(&scene(&path("uniform"), weighted), 4096),
-        |_| true,
-    );
-    for c in 0..3 {
-        assert!(
-            (m[c] - reference[c]).abs() < 0.005 * reference[c],
-            "{m:?} vs {reference:?}"
-        );
-    }
+    let m = image_means(&scene(&path("uniform"), weighted), 2048);
+    assert_same_means("sampling_weight 5", m, reference);
 }
 
 #[test]

@@ -23,6 +23,16 @@
 //! for MIS. The tree is built top-down with the surface area orientation
 //! heuristic (the paper's SAOH, binned along each axis).
 //!
+//! Importance is only an estimate: it sees a light's power as one number
+//! (its largest RGB channel, as pbrt-v4 takes the spectrum's maximum) and
+//! a point lit head-on by one light and at grazing by another of another
+//! colour would choose the second too rarely for that colour's channel.
+//! The tree's choice is therefore mixed with a uniform choice among its
+//! lights (defensive importance sampling, Hesterberg 1995): probability
+//! (1 − α) · p_tree + α / n, α = [`DEFENSIVE_FRACTION`], so no light is
+//! ever more than n/α times rarer than under uniform choice, at the cost
+//! of at most 1/(1 − α) more variance where the tree's guess is right.
+//!
 //! Emissive meshes enter triangle by triangle, so that the triangles near
 //! a point are preferred over the far ones. Lights at infinity
 //! (`constant`, `envmap`, `directional`) and `directionalarea` have no
@@ -43,7 +53,7 @@ use std::f32::consts::{FRAC_PI_2, PI};
 pub struct LightBounds {
     /// Box around the emitting points.
     pub bounds: Bounds3,
-    /// Total emitted power (luminance).
+    /// Total emitted power (largest channel).
     pub phi: f32,
     /// Axis of the cone of emission normals.
     pub w: Vec3,
@@ -316,26 +326,53 @@ impl LightBvh {
         }
     }
 
-    /// Chooses a light for point `p` with normal `n`.
-    pub fn sample(&self, mut u: f32, p: Vec3, n: Vec3) -> Option<(LightChoice, f32)> {
+    /// Chooses a light for point `p` with normal `n`: uniformly among the
+    /// tree's lights with probability α, else by traversal.
+    pub fn sample(&self, u: f32, p: Vec3, n: Vec3) -> Option<(LightChoice, f32)> {
         let p_tree = self.p_tree();
-        let p_inf = (1.0 - p_tree) / self.infinite.len().max(1) as f32;
-        if u >= p_tree || self.nodes.is_empty() {
-            if self.infinite.is_empty() {
-                return None;
-            }
-            let k = (((u - p_tree) / (1.0 - p_tree)) * self.infinite.len() as f32) as usize;
-            let e = self.infinite[k.min(self.infinite.len() - 1)];
-            return Some((
-                LightChoice {
-                    emitter: e,
-                    prim: LightChoice::WHOLE,
-                },
-                p_inf,
-            ));
+        if u < p_tree && !self.nodes.is_empty() {
+            let u = u / p_tree;
+            let (choice, tree_pmf) = if u < DEFENSIVE_FRACTION {
+                let n_lights = self.lights.len();
+                let k = ((u / DEFENSIVE_FRACTION) * n_lights as f32) as usize;
+                let light = self.lights[k.min(n_lights - 1)];
+                (light, self.traversal_pmf(light, p, n))
+            } else {
+                let u = ((u - DEFENSIVE_FRACTION) / (1.0 - DEFENSIVE_FRACTION)).min(ONE_MINUS_EPS);
+                self.traverse(u, p, n)?
+            };
+            return Some((choice, p_tree * self.mix(tree_pmf)));
         }
-        u = (u / p_tree).min(ONE_MINUS_EPS);
-        let mut pmf = p_tree;
+        self.sample_infinite(u, p_tree)
+    }
+
+    /// The mixture of the traversal's probability with the uniform choice.
+    #[inline]
+    fn mix(&self, tree_pmf: f32) -> f32 {
+        (1.0 - DEFENSIVE_FRACTION) * tree_pmf + DEFENSIVE_FRACTION / self.lights.len() as f32
+    }
+
+    /// A light at infinity, for `u` in [p_tree, 1).
+    fn sample_infinite(&self, u: f32, p_tree: f32) -> Option<(LightChoice, f32)> {
+        if self.infinite.is_empty() {
+            return None;
+        }
+        let p_inf = (1.0 - p_tree) / self.infinite.len() as f32;
+        let k = (((u - p_tree) / (1.0 - p_tree)) * self.infinite.len() as f32) as usize;
+        let e = self.infinite[k.min(self.infinite.len() - 1)];
+        Some((
+            LightChoice {
+                emitter: e,
+                prim: LightChoice::WHOLE,
+            },
+            p_inf,
+        ))
+    }
+
+    /// Walks down the tree with `u`, each child taken in proportion to its
+    /// importance: the leaf's light and the product of the probabilities.
+    fn traverse(&self, mut u: f32, p: Vec3, n: Vec3) -> Option<(LightChoice, f32)> {
+        let mut pmf = 1.0;
         let mut i = 0usize;
         loop {
             let node = &self.nodes[i];
@@ -374,14 +411,22 @@ impl LightBvh {
         if self.is_infinite.get(e).copied().unwrap_or(false) {
             return (1.0 - self.p_tree()) / self.infinite.len() as f32;
         }
+        match self.trail_index(light) {
+            Some(t) if self.trails[t] != NO_TRAIL => {
+                self.p_tree() * self.mix(self.traversal_pmf(light, p, n))
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Probability that the traversal alone reaches `light` (a light of
+    /// the tree) from (`p`, `n`), following its bit trail.
+    fn traversal_pmf(&self, light: LightChoice, p: Vec3, n: Vec3) -> f32 {
         let Some(t) = self.trail_index(light) else {
             return 0.0;
         };
         let trail = self.trails[t];
-        if trail == NO_TRAIL {
-            return 0.0;
-        }
-        let mut pmf = self.p_tree();
+        let mut pmf = 1.0;
         let mut i = 0usize;
         for depth in 0..MAX_DEPTH {
             let node = &self.nodes[i];
@@ -406,6 +451,11 @@ impl LightBvh {
         0.0
     }
 
+    /// Number of lights in the tree (leaves).
+    pub fn light_count(&self) -> usize {
+        self.lights.len()
+    }
+
     /// Whether `emitter`'s mesh triangles are separate lights.
     pub fn splits(&self, emitter: u32) -> bool {
         self.split.get(emitter as usize).copied().unwrap_or(false)
@@ -413,6 +463,10 @@ impl LightBvh {
 }
 
 const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// α, the share of light choices made uniformly among the tree's lights
+/// (see the module docs).
+pub const DEFENSIVE_FRACTION: f32 = 0.25;
 
 /// Lights the tree cannot bound.
 fn has_no_bounds(e: &Emitter) -> bool {
@@ -448,7 +502,7 @@ fn push_bounds(
     match e {
         Emitter::Area(a) => {
             let shape = &ctx.shapes[a.shape as usize];
-            let mean = a.radiance.mean(ctx.materials);
+            let mean = super::power_mean(a.radiance, ctx.materials);
             if let Shape::Mesh(m) = shape {
                 let mesh = &ctx.meshes[m.mesh as usize];
                 for tri in 0..mesh.triangle_count() {
@@ -798,8 +852,8 @@ mod tests {
         );
         assert!(near > 2.0 * far, "near {near}, far {far}");
         let _ = &choices;
-        // Well behind a one-sided light (outside its bounding sphere), it is
-        // never chosen.
+        // Well behind a one-sided light (outside its bounding sphere), the
+        // tree never takes it: only the uniform share α / n chooses it.
         let behind = to_world.point(Vec3::ZERO) - 3.0 * front;
         let pmf_behind = scene.light_sampler.pmf(
             LightChoice {
@@ -809,7 +863,14 @@ mod tests {
             behind,
             front,
         );
-        assert_eq!(pmf_behind, 0.0);
+        let tree_lights = scene.light_sampler.bvh_light_count() as f32;
+        let p_tree = 1.0 / (1 + scene.environment_emitters.len()) as f32;
+        let floor = p_tree * DEFENSIVE_FRACTION / tree_lights;
+        assert!(
+            (pmf_behind / floor - 1.0).abs() < 1e-5,
+            "{pmf_behind} vs {floor}"
+        );
+        assert!(near > 10.0 * floor);
     }
 
     #[test]

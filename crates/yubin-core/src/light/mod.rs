@@ -42,7 +42,6 @@ use crate::interaction::SurfaceInteraction;
 use crate::params::{ParamError, Params};
 use crate::sampling::Distribution2D;
 use crate::shape::{Shape, ShapeModel, TriangleMesh};
-use crate::spectrum::luminance;
 use crate::texture::TexImage;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
@@ -163,6 +162,15 @@ pub(crate) fn uv_interaction(p: Vec3, n: Vec3, uv: Vec2) -> SurfaceInteraction {
     )
 }
 
+/// The mean of an emission texture for light selection: a constant's
+/// largest channel (as [`Emitter::power`] counts), a texture's mean.
+pub(crate) fn power_mean(t: crate::texture::Tex, m: &crate::material::Materials) -> f32 {
+    match t.as_const() {
+        Some(c) => c.max_element(),
+        None => t.mean(m),
+    }
+}
+
 /// Builds the sampling distributions that emitters keep in the scene
 /// (`Scene::light_distributions`) and points each emitter at its own, and
 /// fits projectors to their image's aspect ratio;
@@ -249,7 +257,8 @@ impl Emitter {
         }
     }
 
-    /// Emitted power's luminance, for light selection; lights at infinity
+    /// Emitted power (its largest RGB channel: a light bright in one
+    /// channel only is not rare there), for light selection; lights at infinity
     /// count what crosses a disk of the scene's bounding radius `radius`
     /// (pbrt-v4's convention).
     pub fn power(&self, ctx: &EmitterContext, radius: f32) -> f32 {
@@ -258,22 +267,22 @@ impl Emitter {
         match self {
             Emitter::Area(a) => {
                 let area = ctx.shapes[a.shape as usize].surface_area(ctx.meshes);
-                PI * area * a.radiance.mean(ctx.materials)
+                PI * area * power_mean(a.radiance, ctx.materials)
             }
-            Emitter::Point(p) => 4.0 * PI * luminance(p.intensity),
+            Emitter::Point(p) => 4.0 * PI * p.intensity.max_element(),
             Emitter::Spot(s) => s.power(ctx),
             Emitter::Projector(l) => l.power(ctx),
-            Emitter::Directional(d) => disk * luminance(d.irradiance),
+            Emitter::Directional(d) => disk * d.irradiance.max_element(),
             Emitter::Constant(_) | Emitter::EnvMap(_) => disk * self.environment_integral(ctx),
             // The grid would miss the sun's disk: it is added in closed form.
             Emitter::Preetham(s) => {
-                let sun = luminance(s.sun_radiance) * 2.0 * PI * (1.0 - s.cos_sun_radius);
+                let sun = s.sun_radiance.max_element() * 2.0 * PI * (1.0 - s.cos_sun_radius);
                 disk * (self.environment_integral(ctx) + sun)
             }
         }
     }
 
-    /// ∫ luminance(L(ω)) dω over the sphere of an emitter at infinity, by
+    /// ∫ max(L(ω)) dω (largest channel) over the sphere of an emitter at infinity, by
     /// the midpoint rule on an equal-area grid in (cos θ, φ).
     fn environment_integral(&self, ctx: &EmitterContext) -> f32 {
         const N_THETA: usize = 64;
@@ -285,7 +294,7 @@ impl Emitter {
             for j in 0..N_PHI {
                 let phi = 2.0 * std::f32::consts::PI * (j as f32 + 0.5) / N_PHI as f32;
                 let d = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
-                sum += luminance(self.environment_radiance(ctx, d)) as f64;
+                sum += self.environment_radiance(ctx, d).max_element() as f64;
             }
         }
         (sum * 4.0 * std::f64::consts::PI / (N_THETA * N_PHI) as f64) as f32

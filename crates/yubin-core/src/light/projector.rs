@@ -134,9 +134,9 @@ impl ProjectorLight {
         4.0 * self.tan_half.x * self.tan_half.y
     }
 
-    /// Total emitted power's luminance (for light selection).
+    /// Total emitted power, largest channel (for light selection).
     pub fn power(&self, ctx: &EmitterContext) -> f32 {
-        PI * self.scale * self.irradiance.mean(ctx.materials) * self.plane_area()
+        PI * self.scale * super::power_mean(self.irradiance, ctx.materials) * self.plane_area()
     }
 
     /// Half-angle of the cone around the axis that holds every lit

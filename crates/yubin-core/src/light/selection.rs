@@ -209,6 +209,11 @@ impl LightSampler {
         self.bvh.as_ref()?.sample(u, p, n)
     }
 
+    /// Number of lights in the light BVH (0 without one).
+    pub fn bvh_light_count(&self) -> usize {
+        self.bvh.as_ref().map_or(0, LightBvh::light_count)
+    }
+
     /// Probability that [`LightSampler::sample`] at (`p`, `n`) chooses
     /// `light`.
     #[inline]

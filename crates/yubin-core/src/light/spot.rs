@@ -35,7 +35,6 @@ use super::{uv_interaction, EmitterContext, EmitterModel, EmitterSample};
 use crate::math::Transform;
 use crate::params::{ColorKind, ParamError, Params};
 use crate::sampling::{square_to_uniform_cone, uniform_cone_pdf};
-use crate::spectrum::luminance;
 use crate::texture::Tex;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
@@ -141,7 +140,7 @@ impl SpotLight {
         }
     }
 
-    /// Total emitted power's luminance (for light selection).
+    /// Total emitted power, largest channel (for light selection).
     pub fn power(&self, ctx: &EmitterContext) -> f32 {
         let (c, b) = (self.cutoff, self.beam);
         let cone = if c - b > 1e-6 {
@@ -150,7 +149,7 @@ impl SpotLight {
             1.0 - c.cos()
         };
         let texture_mean = self.texture.map_or(1.0, |t| t.mean(ctx.materials));
-        luminance(self.intensity) * 2.0 * std::f32::consts::PI * cone * texture_mean
+        self.intensity.max_element() * 2.0 * std::f32::consts::PI * cone * texture_mean
     }
 
     /// A world direction of emission, uniform in the cutoff cone, and its
