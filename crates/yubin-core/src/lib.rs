@@ -28,5 +28,5 @@ pub mod testing;
 pub mod texture;
 
 pub use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec3A};
-pub use scene::{Scene, SceneBuilder};
+pub use scene::{Scene, SceneBuilder, ShapeEmitter};
 pub use spectrum::Rgb;

@@ -156,6 +156,15 @@ struct HitRecord {
     instance: Option<u32>,
 }
 
+/// An emitter that covers a shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ShapeEmitter {
+    /// `area`, with its radiance.
+    Area(Tex),
+    /// `directionalarea`, with its radiance.
+    DirectionalArea(Tex),
+}
+
 /// A scene ready to render.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -716,6 +725,21 @@ impl SceneBuilder {
         bsdf: Option<u32>,
         radiance: Option<Tex>,
     ) -> Result<u32, BuildError> {
+        self.add_shape_with_emitter(group, shape, bsdf, radiance.map(ShapeEmitter::Area))
+    }
+
+    /// Adds a shape to group `group` (0 is the world) with the emitter it
+    /// carries, if any.
+    pub fn add_shape_with_emitter(
+        &mut self,
+        group: u32,
+        shape: Shape,
+        bsdf: Option<u32>,
+        emitter: Option<ShapeEmitter>,
+    ) -> Result<u32, BuildError> {
+        let radiance = emitter.map(|e| match e {
+            ShapeEmitter::Area(t) | ShapeEmitter::DirectionalArea(t) => t,
+        });
         if group as usize >= self.groups.len() {
             return Err(BuildError::BadIndex {
                 what: "shape group",
@@ -749,14 +773,22 @@ impl SceneBuilder {
             None => self.add_bsdf(Bsdf::Diffuse(Diffuse::default())),
         };
         let id = self.shapes.len() as u32;
-        let emitter = radiance.map(|radiance| {
+        let emitter = emitter.map(|e| {
             if let Shape::Mesh(m) = shape {
                 self.meshes[m.mesh as usize].prepare_area_sampling();
             }
-            self.add_emitter(Emitter::Area(AreaLight {
-                shape: id,
-                radiance,
-            }))
+            self.add_emitter(match e {
+                ShapeEmitter::Area(radiance) => Emitter::Area(AreaLight {
+                    shape: id,
+                    radiance,
+                }),
+                ShapeEmitter::DirectionalArea(radiance) => {
+                    Emitter::DirectionalArea(crate::light::DirectionalAreaLight {
+                        shape: id,
+                        radiance,
+                    })
+                }
+            })
         });
         let prims = shape.prim_count(&self.meshes);
         self.shapes.push(shape);

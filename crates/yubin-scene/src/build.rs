@@ -33,7 +33,7 @@ use yubin_core::params::{ColorKind, ParamError, Params};
 use yubin_core::shape::{BuiltShape, MeshShape, Shape, TriangleMesh};
 use yubin_core::spectrum::Rgb;
 use yubin_core::texture::Tex;
-use yubin_core::{Scene, SceneBuilder};
+use yubin_core::{Scene, SceneBuilder, ShapeEmitter};
 
 /// A scene ready to render, with what the file said about how.
 #[derive(Debug)]
@@ -318,17 +318,23 @@ impl Builder<'_> {
         }
     }
 
-    fn area_radiance(&mut self, obj: &Object) -> Result<Option<(Tex, EmitterOptions)>, SceneError> {
+    fn area_radiance(
+        &mut self,
+        obj: &Object,
+    ) -> Result<Option<(ShapeEmitter, EmitterOptions)>, SceneError> {
         let Some(c) = obj.single_child(Category::Emitter)? else {
             return Ok(None);
         };
         let e = &c.object;
-        if e.plugin_type != "area" {
-            return Err(e.error(format!(
-                "a shape can only carry an \"area\" emitter, not \"{}\"",
-                e.plugin_type
-            )));
-        }
+        let directional = match e.plugin_type.as_str() {
+            "area" => false,
+            "directionalarea" => true,
+            other => {
+                return Err(e.error(format!(
+                    "a shape can only carry an \"area\" or \"directionalarea\" emitter, not \"{other}\""
+                )))
+            }
+        };
         let e = e.clone();
         let mut p = ObjParams { obj: &e, b: self };
         let radiance = p.texture_or("radiance", ColorKind::Illuminant, Rgb::ONE)?;
@@ -344,7 +350,12 @@ impl Builder<'_> {
                  (light samples carry no triangle attributes)",
             ));
         }
-        Ok(Some((radiance, options)))
+        let emitter = if directional {
+            ShapeEmitter::DirectionalArea(radiance)
+        } else {
+            ShapeEmitter::Area(radiance)
+        };
+        Ok(Some((emitter, options)))
     }
 
     /// Builds a shape into group `group` (0: the world).
@@ -396,7 +407,7 @@ impl Builder<'_> {
         let emission = self.area_radiance(obj)?;
         let id = self
             .sb
-            .add_shape_to(group, shape, bsdf, emission.map(|(radiance, _)| radiance))
+            .add_shape_with_emitter(group, shape, bsdf, emission.map(|(e, _)| e))
             .map_err(|e| obj.error(e.to_string()))?;
         if let (Some((_, options)), Some(e)) = (emission, self.sb.emitter_of_shape(id)) {
             self.sb.set_emitter_options(e, options);
@@ -479,19 +490,19 @@ impl Builder<'_> {
     }
 
     fn emitter(&mut self, obj: &Object) -> Result<(), SceneError> {
-        if obj.plugin_type == "area" {
+        if obj.plugin_type == "area" || obj.plugin_type == "directionalarea" {
             if obj.id.is_some() {
                 // Declared at the top level to be attached to shapes by
                 // `<ref>`; each shape that refers to it builds it.
                 return Ok(());
             }
             return Err(obj.error(
-                "an area emitter must be nested inside a shape (or declared with an id and referenced from shapes)",
+                "an area or directionalarea emitter must be nested inside a shape (or declared with an id and referenced from shapes)",
             ));
         }
         let build = plugin(obj, yubin_core::light::PLUGINS).map_err(|_| {
             let known: Vec<&str> = yubin_core::light::PLUGINS.iter().map(|(n, _)| *n).collect();
-            unknown_type(obj, &format!("area, {}", known.join(", ")))
+            unknown_type(obj, &format!("area, directionalarea, {}", known.join(", ")))
         })?;
         let mut p = ObjParams { obj, b: self };
         let options = EmitterOptions::from_params(&mut p)?;

@@ -190,3 +190,61 @@ fn ptracer_cannot_be_nested() {
         "{err}"
     );
 }
+
+/// A `directionalarea` square tilted at 45° lights a floor patch with
+/// irradiance E cos 45°: seen from straight above, the patch has radiance
+/// ρ E cos 45° / π and the floor beside it is black. `path` cannot see
+/// that light at all.
+#[test]
+fn directional_area_light_lights_its_footprint() {
+    let xml = |integrator: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+<integrator type="{integrator}"/>
+<sensor type="perspective">
+  <float name="fov" value="40"/>
+  <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+  <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/>
+    <rfilter type="box"/></film>
+</sensor>
+<shape type="rectangle">
+  <transform name="to_world"><scale value="4"/></transform>
+  <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+</shape>
+<shape type="rectangle">
+  <transform name="to_world"><scale value="0.5"/><rotate y="1" angle="135"/><translate x="-2.2" z="2.2"/></transform>
+  <emitter type="directionalarea"><rgb name="radiance" value="3"/></emitter>
+</shape>
+</scene>"#
+        )
+    };
+    let render_with = |integrator: &str| {
+        let loaded = load_scene_str(&xml(integrator), Path::new("da.xml"), &[]).unwrap();
+        render(
+            &loaded.scene,
+            loaded.integrator.as_ref(),
+            &RenderSettings { spp: 256, seed: 1 },
+            &|_| {},
+        )
+        .image
+        .data
+    };
+    let img = render_with("ptracer");
+    // The camera sees |x|, |y| < 5 tan 20° = 1.82; the footprint is
+    // |x| < 0.71, |y| < 0.5 (a pixel is 0.23 wide).
+    let at = |px: usize, py: usize| img[(py * 16 + px) * 3];
+    let expected = 0.5 * 3.0 * std::f32::consts::FRAC_1_SQRT_2 / std::f32::consts::PI;
+    let centre: f32 = [(7, 7), (8, 7), (7, 8), (8, 8), (6, 7), (9, 8)]
+        .iter()
+        .map(|&(x, y)| at(x, y))
+        .sum::<f32>()
+        / 6.0;
+    assert!(
+        (centre / expected - 1.0).abs() < 0.03,
+        "{centre} vs {expected}"
+    );
+    for (x, y) in [(7, 1), (8, 14), (0, 8), (15, 7)] {
+        assert_eq!(at(x, y), 0.0, "pixel ({x}, {y}) is outside the footprint");
+    }
+    assert!(render_with("path").iter().all(|&v| v == 0.0));
+}

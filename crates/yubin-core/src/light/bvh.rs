@@ -35,9 +35,10 @@
 //!
 //! Emissive meshes enter triangle by triangle, so that the triangles near
 //! a point are preferred over the far ones. Lights at infinity
-//! (`constant`, `envmap`, `directional`) and `directionalarea` have no
-//! useful bounds: they are chosen outside the tree, each with probability
+//! (`constant`, `envmap`, `directional`) have no useful bounds: they are
+//! chosen outside the tree, each with probability
 //! 1 / (their number + 1) (pbrt's rule), the tree getting the rest.
+//! `directionalarea` lights, which no point can sample, are never chosen.
 //! Lights with zero power are never chosen (BSDF sampling still finds
 //! them, with full MIS weight).
 
@@ -231,6 +232,10 @@ impl LightBvh {
         let mut trail_count = 0u32;
         for (i, e) in emitters.iter().enumerate() {
             let i = i as u32;
+            // Nothing samples a directional area light from a point.
+            if matches!(e, Emitter::DirectionalArea(_)) {
+                continue;
+            }
             if has_no_bounds(e) {
                 if e.power(ctx, radius) > 0.0 {
                     bvh.infinite.push(i);

@@ -5,6 +5,8 @@
 //!
 //! - `area`: a point uniform on the shape's area, a cosine-weighted
 //!   direction about its (emitting) normal: weight π Le / p_A.
+//! - `directionalarea`: a point uniform on the shape's area, along its
+//!   normal: weight E / p_A.
 //! - `point`: a uniform direction: weight 4π I.
 //! - `spot`, `projector`: their own direction sampling (uniform in the
 //!   cutoff cone, uniform over the image plane): weight I(ω) / p(ω).
@@ -70,6 +72,17 @@ impl Emitter {
                     tex => tex.eval(ctx.materials, &uv_interaction(ps.p, ps.n, ps.uv)),
                 };
                 (ps.p, d, le * (PI / ps.pdf), ps.n)
+            }
+            Emitter::DirectionalArea(a) => {
+                let ps = ctx.shapes[a.shape as usize].sample_position(ctx.meshes, u_pos);
+                if !(ps.pdf > 0.0 && ps.pdf.is_finite()) {
+                    return None;
+                }
+                let e = match a.radiance {
+                    Tex::Const(c) => c,
+                    tex => tex.eval(ctx.materials, &uv_interaction(ps.p, ps.n, ps.uv)),
+                };
+                (ps.p, ps.n, e / ps.pdf, ps.n)
             }
             Emitter::Point(l) => (
                 l.position,

@@ -19,6 +19,7 @@ mod area;
 pub mod bvh;
 mod constant;
 mod directional;
+mod directional_area;
 mod emission;
 mod envmap;
 mod point;
@@ -30,6 +31,7 @@ mod spot;
 pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
+pub use directional_area::DirectionalAreaLight;
 pub use emission::{EmissionSample, SceneSphere};
 pub use envmap::EnvMapLight;
 pub use point::PointLight;
@@ -120,6 +122,8 @@ pub enum Emitter {
     Preetham(PreethamLight),
     /// `projector`.
     Projector(ProjectorLight),
+    /// `directionalarea`.
+    DirectionalArea(DirectionalAreaLight),
 }
 
 /// Builds an emitter plugin from its parameters.
@@ -210,6 +214,7 @@ macro_rules! dispatch {
             Emitter::Spot($l) => $e,
             Emitter::Preetham($l) => $e,
             Emitter::Projector($l) => $e,
+            Emitter::DirectionalArea($l) => $e,
         }
     };
 }
@@ -272,6 +277,10 @@ impl Emitter {
             Emitter::Point(p) => 4.0 * PI * p.intensity.max_element(),
             Emitter::Spot(s) => s.power(ctx),
             Emitter::Projector(l) => l.power(ctx),
+            Emitter::DirectionalArea(a) => {
+                let area = ctx.shapes[a.shape as usize].surface_area(ctx.meshes);
+                area * power_mean(a.radiance, ctx.materials)
+            }
             Emitter::Directional(d) => disk * d.irradiance.max_element(),
             Emitter::Constant(_) | Emitter::EnvMap(_) => disk * self.environment_integral(ctx),
             // The grid would miss the sun's disk: it is added in closed form.

@@ -1,0 +1,50 @@
+//! `directionalarea`: a surface that emits only along its normal, as if
+//! each point were a tiny directional light (Mitsuba 3's plugin).
+//!
+//! | parameter  | type          | default | meaning                                         |
+//! |------------|---------------|---------|-------------------------------------------------|
+//! | `radiance` | rgb / texture | 1       | power per unit area leaving along the normal (W/m²) |
+//!
+//! ```xml
+//! <shape type="rectangle">
+//!     <emitter type="directionalarea"><rgb name="radiance" value="3"/></emitter>
+//! </shape>
+//! ```
+//!
+//! Mitsuba's conventions, checked on its `scalar_rgb` variant: the emitted
+//! flux is `radiance` × area, all of it travelling along the shape's
+//! (emitting) normal, so a surface facing it head-on receives an
+//! irradiance of `radiance`. Emission is a delta in direction: a ray from
+//! the camera or a BSDF never meets it and a light sample from a point
+//! never reaches it, so `path` and `direct` render it (and what it lights)
+//! black, and the light BVH leaves it out. Only paths that start at the
+//! lights see it: render it with `ptracer`, whose emission rays leave a
+//! uniform point of the shape along its normal with weight
+//! `radiance` × area.
+
+use super::{EmitterContext, EmitterModel, EmitterSample};
+use crate::texture::Tex;
+use glam::{Vec2, Vec3};
+
+/// A directional area light on shape `shape`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectionalAreaLight {
+    /// The shape it covers (index into the scene's shapes).
+    pub shape: u32,
+    /// Flux per unit area, along the normal.
+    pub radiance: Tex,
+}
+
+impl EmitterModel for DirectionalAreaLight {
+    fn sample_direction(&self, _: &EmitterContext, _: Vec3, _: Vec2) -> Option<EmitterSample> {
+        None
+    }
+
+    fn pdf_direction(&self, _: &EmitterContext, _: Vec3, _: Vec3, _: Vec3, _: Vec3) -> f32 {
+        0.0
+    }
+
+    fn is_delta(&self) -> bool {
+        true
+    }
+}
