@@ -166,6 +166,34 @@ pub(crate) fn uv_interaction(p: Vec3, n: Vec3, uv: Vec2) -> SurfaceInteraction {
     )
 }
 
+/// The light sample of a source at the single point `position` whose
+/// intensity towards the unit direction d is `intensity(d)`: I / dist²,
+/// density 1, delta; `None` when it sends nothing towards `ref_p`.
+pub(crate) fn point_source_sample(
+    position: Vec3,
+    ref_p: Vec3,
+    intensity: impl FnOnce(Vec3) -> Rgb,
+) -> Option<EmitterSample> {
+    let delta = position - ref_p;
+    let dist2 = delta.length_squared();
+    if dist2 == 0.0 {
+        return None;
+    }
+    let dist = dist2.sqrt();
+    let wi = delta / dist;
+    let i = intensity(-wi);
+    if i == Rgb::ZERO {
+        return None;
+    }
+    Some(EmitterSample {
+        wi,
+        dist,
+        pdf: 1.0,
+        radiance: i / dist2,
+        is_delta: true,
+    })
+}
+
 /// The mean of an emission texture for light selection: a constant's
 /// largest channel (as [`Emitter::power`] counts), a texture's mean.
 pub(crate) fn power_mean(t: crate::texture::Tex, m: &crate::material::Materials) -> f32 {

@@ -182,23 +182,8 @@ impl EmitterModel for ProjectorLight {
         ref_p: Vec3,
         _u: Vec2,
     ) -> Option<EmitterSample> {
-        let delta = self.to_world.point(Vec3::ZERO) - ref_p;
-        let dist2 = delta.length_squared();
-        if dist2 == 0.0 {
-            return None;
-        }
-        let dist = dist2.sqrt();
-        let wi = delta / dist;
-        let i = self.intensity_towards(ctx, -wi);
-        if i == Rgb::ZERO {
-            return None;
-        }
-        Some(EmitterSample {
-            wi,
-            dist,
-            pdf: 1.0,
-            radiance: i / dist2,
-            is_delta: true,
+        super::point_source_sample(self.to_world.point(Vec3::ZERO), ref_p, |d| {
+            self.intensity_towards(ctx, d)
         })
     }
 
