@@ -136,55 +136,92 @@ impl EmitterModel for AreaLight {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
+pub(crate) mod tests {
+    use crate::light::tests::Variant;
     use crate::light::Emitter;
-    use crate::math::{Ray, Transform};
-    use crate::shape::{Rectangle, Shape};
-    use crate::testing::chi2::{chi2_directions, Chi2Config};
-    use crate::Rgb;
+    use crate::math::Transform;
+    use crate::shape::{Cylinder, Disk, MeshShape, Rectangle, Shape, Sphere};
+    use glam::{Affine3A, Vec3};
+    use std::f32::consts::PI;
 
-    #[test]
-    fn chi2_area_light_on_rectangle() {
-        let shapes = [Shape::Rectangle(Rectangle {
-            to_world: Transform::new(glam::Affine3A::from_rotation_x(2.5)).unwrap(),
-            flip_normals: false,
-        })];
-        let ctx = EmitterContext {
-            shapes: &shapes,
-            ..EmitterContext::EMPTY
-        };
-        let light = Emitter::Area(AreaLight {
-            shape: 0,
-            radiance: Tex::Const(Rgb::ONE),
-        });
-        let ref_p = Vec3::new(0.2, -1.5, -1.0);
-        chi2_directions(
-            &Chi2Config {
-                integration_res: 24,
-                ..Chi2Config::default()
-            },
-            |r| {
-                light
-                    .sample_direction(&ctx, ref_p, r.next_2d())
-                    .map(|s| (s.wi, s.pdf))
-            },
-            |wi| {
-                let s = &shapes[0];
-                let ray = Ray::new(ref_p, wi);
-                match s.intersect(&[], 0, &ray) {
-                    Some(h) => {
-                        let si = s.interaction(&[], 0, &ray, h);
-                        if si.n.dot(wi) < 0.0 {
-                            light.pdf_direction(&ctx, ref_p, si.p, si.n, wi)
-                        } else {
-                            0.0
-                        }
-                    }
-                    None => 0.0,
-                }
-            },
-        )
-        .unwrap();
+    /// The flat lights' rotation about x.
+    const TURN: f32 = 2.5;
+
+    /// Cosine-weighted about the flat lights' normal.
+    fn cosine_about_normal(_: &Emitter, d: Vec3) -> f32 {
+        let normal = Affine3A::from_rotation_x(TURN).transform_vector3(Vec3::Z);
+        d.dot(normal).max(0.0) / PI
+    }
+
+    fn placed(m: Affine3A) -> Transform {
+        Transform::new(m).unwrap()
+    }
+
+    /// Flat lights (with their normal, so the emitted directions have the
+    /// density cos/π about it), curved ones, a sphere from outside and
+    /// from inside, and a mesh of uneven triangles.
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        let turned = Affine3A::from_rotation_x(TURN);
+        let front = Vec3::new(0.2, -1.5, -1.0);
+        let mut rectangle = Variant::area(
+            "area on a rectangle",
+            Shape::Rectangle(Rectangle {
+                to_world: placed(turned),
+                flip_normals: false,
+            }),
+            vec![],
+            vec![front],
+        );
+        rectangle.dark_refs = vec![Vec3::new(1.5, 0.3, 0.6)];
+        rectangle.emission_pdf = Some(cosine_about_normal);
+        let mut disk = Variant::area(
+            "area on a scaled disk",
+            Shape::Disk(Disk {
+                to_world: placed(turned * Affine3A::from_scale(Vec3::new(2.0, 0.5, 1.0))),
+                flip_normals: false,
+            }),
+            vec![],
+            vec![front],
+        );
+        disk.emission_pdf = Some(cosine_about_normal);
+        let mut mesh = Variant::area(
+            "area on a mesh of uneven triangles",
+            Shape::Mesh(MeshShape { mesh: 0 }),
+            vec![crate::shape::mesh_tests::uneven_planar_mesh()],
+            vec![Vec3::new(0.3, -0.8, 1.5)],
+        );
+        mesh.dark_refs = vec![Vec3::new(-0.2, 0.4, -2.0)];
+        vec![
+            rectangle,
+            disk,
+            Variant::area(
+                "area on a sphere, outside",
+                Shape::Sphere(Sphere::new(Vec3::new(0.5, 1.0, 0.0), 0.7, false)),
+                vec![],
+                vec![Vec3::new(0.0, -1.5, 0.5), Vec3::new(0.5, 1.0, 4.0)],
+            ),
+            Variant::area(
+                "area on a sphere with flipped normals, inside",
+                Shape::Sphere(Sphere::new(Vec3::ZERO, 2.0, true)),
+                vec![],
+                vec![Vec3::new(0.3, 0.5, -1.2)],
+            ),
+            // From inside, where every ray meets the surface once (a ray
+            // from outside could meet a hidden point first, by area).
+            Variant::area(
+                "area on a cylinder with flipped normals, inside",
+                Shape::Cylinder(Cylinder {
+                    to_world: placed(Cylinder::object_to_world(
+                        Vec3::new(-1.0, 0.0, 0.0),
+                        Vec3::new(1.0, 0.5, 0.0),
+                        0.4,
+                    )),
+                    flip_normals: true,
+                }),
+                vec![],
+                vec![Vec3::new(0.1, 0.3, 0.1)],
+            ),
+            mesh,
+        ]
     }
 }

@@ -54,22 +54,20 @@ impl EmitterModel for ConstantLight {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
-    use crate::testing::chi2::{chi2_directions, Chi2Config};
+    use crate::light::tests::Variant;
+    use crate::light::Emitter;
 
-    #[test]
-    fn chi2_constant_light() {
-        let l = ConstantLight { radiance: Rgb::ONE };
-        let ctx = EmitterContext::EMPTY;
-        chi2_directions(
-            &Chi2Config::default(),
-            |r| {
-                l.sample_direction(&ctx, Vec3::ZERO, r.next_2d())
-                    .map(|s| (s.wi, s.pdf))
-            },
-            |wi| l.pdf_direction(&ctx, Vec3::ZERO, Vec3::ZERO, Vec3::Z, wi),
-        )
-        .unwrap();
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        let mut v = Variant::environment(
+            "constant",
+            Emitter::Constant(ConstantLight {
+                radiance: Rgb::new(0.5, 1.0, 2.0),
+            }),
+        );
+        // A constant integrates exactly on any grid.
+        v.exact_power = true;
+        vec![v]
     }
 }

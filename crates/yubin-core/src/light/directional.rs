@@ -64,8 +64,20 @@ impl EmitterModel for DirectionalLight {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+    use crate::light::tests::Variant;
+    use crate::light::Emitter;
+
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        vec![Variant::new(
+            "directional",
+            Emitter::Directional(DirectionalLight {
+                direction: Vec3::new(0.3, -0.4, -0.8).normalize(),
+                irradiance: Rgb::new(1.0, 2.0, 3.0),
+            }),
+        )]
+    }
 
     #[test]
     fn directional_light_pdf_conventions() {

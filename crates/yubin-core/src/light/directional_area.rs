@@ -48,3 +48,35 @@ impl EmitterModel for DirectionalAreaLight {
         true
     }
 }
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::light::tests::Variant;
+    use crate::light::Emitter;
+    use crate::math::Transform;
+    use crate::shape::{Rectangle, Shape};
+    use crate::Rgb;
+
+    /// A scaled, tilted square: emission weights average to radiance × area.
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        let to_world = Transform::new(
+            glam::Affine3A::from_rotation_y(0.7)
+                * glam::Affine3A::from_scale(Vec3::new(1.5, 0.5, 1.0)),
+        )
+        .unwrap();
+        vec![Variant {
+            shapes: vec![Shape::Rectangle(Rectangle {
+                to_world,
+                flip_normals: false,
+            })],
+            ..Variant::new(
+                "directionalarea on a rectangle",
+                Emitter::DirectionalArea(DirectionalAreaLight {
+                    shape: 0,
+                    radiance: Tex::Const(Rgb::new(2.0, 1.0, 3.0)),
+                }),
+            )
+        }]
+    }
+}

@@ -312,8 +312,9 @@ impl EmitterModel for EnvMapLight {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+    use crate::light::tests::Variant;
     use crate::light::{ConstantLight, Emitter};
     use crate::texture::image::ImageData;
 
@@ -437,26 +438,29 @@ mod tests {
         TexImage::new(w, h, 3, ImageData::F32(data), false).unwrap()
     }
 
-    fn chi2(light: EnvMapLight, img: TexImage) {
-        let mut light = light;
-        let dists = with_distribution(&mut light, &img);
-        let images = [img];
-        let ctx = context(&images, &dists);
-        crate::light::chi2_environment(&light, &ctx);
-    }
-
-    #[test]
-    fn chi2_envmap_bright_spot() {
-        chi2(
-            EnvMapLight::new(0, 1.0, Mat3::IDENTITY, false),
-            spot_image(24, 12),
-        );
-    }
-
-    #[test]
-    fn chi2_envmap_rotated_and_compensated() {
-        let to_world = Mat3::from_cols_array_2d(&ROTATION).transpose();
-        chi2(EnvMapLight::new(0, 3.0, to_world, true), spot_image(17, 9));
+    /// A dark map with one bright texel and a coloured seam, and the same
+    /// rotated, scaled and with MIS compensation.
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        let rotation = Mat3::from_cols_array_2d(&ROTATION).transpose();
+        [
+            (
+                "envmap with a bright texel",
+                EnvMapLight::new(0, 1.0, Mat3::IDENTITY, false),
+                spot_image(24, 12),
+            ),
+            (
+                "envmap rotated and compensated",
+                EnvMapLight::new(0, 3.0, rotation, true),
+                spot_image(17, 9),
+            ),
+        ]
+        .into_iter()
+        .map(|(name, light, image)| {
+            let mut v = Variant::environment(name, Emitter::EnvMap(light));
+            v.materials.images.push(image);
+            v
+        })
+        .collect()
     }
 
     /// Sampling returns the radiance `radiance` gives in that direction,

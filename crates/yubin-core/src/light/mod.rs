@@ -346,26 +346,324 @@ impl Emitter {
     }
 }
 
-/// Chi-square test of an emitter at infinity's direction sampling seen
-/// from the origin (its density steps inside bins, so it is integrated
-/// finely). Shared by the environment emitters' tests.
 #[cfg(test)]
-pub(crate) fn chi2_environment(light: &impl EmitterModel, ctx: &EmitterContext) {
+pub(crate) mod tests {
+    use super::*;
+    use crate::material::Materials;
     use crate::testing::chi2::{chi2_directions, Chi2Config};
-    chi2_directions(
-        &Chi2Config {
-            cos_theta_bins: 30,
-            phi_bins: 60,
-            samples: 400_000,
-            integration_res: 32,
-            ..Chi2Config::default()
-        },
-        |r| {
-            light
-                .sample_direction(ctx, Vec3::ZERO, r.next_2d())
-                .map(|s| (s.wi, s.pdf))
-        },
-        |wi| light.pdf_direction(ctx, Vec3::ZERO, Vec3::ZERO, Vec3::Z, wi),
-    )
-    .unwrap();
+
+    /// One configuration of an emitter for the table-driven test, with the
+    /// scene data it reads.
+    pub(crate) struct Variant {
+        /// What is being tested, for messages.
+        pub name: String,
+        /// The emitter under test.
+        pub emitter: Emitter,
+        /// Shapes (an area light's).
+        pub shapes: Vec<Shape>,
+        /// Meshes of those shapes.
+        pub meshes: Vec<TriangleMesh>,
+        /// Textures and images it reads.
+        pub materials: Materials,
+        /// Points it is sampled from.
+        pub refs: Vec<Vec3>,
+        /// Points that see only its back: it gives them no samples.
+        pub dark_refs: Vec<Vec3>,
+        /// Settings of its direction chi-square tests (the table sets the
+        /// significance level).
+        pub chi2: Chi2Config,
+        /// Density of the directions of the rays it emits, where that does
+        /// not depend on where a ray starts (given the emitter as the
+        /// scene built it).
+        pub emission_pdf: Option<fn(&Emitter, Vec3) -> f32>,
+        /// Its [`Emitter::power`] is exact (not a quadrature over an
+        /// environment), so the mean emission weight must equal it.
+        pub exact_power: bool,
+    }
+
+    impl Variant {
+        /// A variant of a light that needs no scene data, sampled from one
+        /// point off the origin.
+        pub(crate) fn new(name: impl Into<String>, emitter: Emitter) -> Self {
+            Self {
+                name: name.into(),
+                emitter,
+                shapes: Vec::new(),
+                meshes: Vec::new(),
+                materials: Materials::default(),
+                refs: vec![Vec3::new(0.3, -0.2, 0.1)],
+                dark_refs: Vec::new(),
+                chi2: Chi2Config::default(),
+                emission_pdf: None,
+                exact_power: true,
+            }
+        }
+
+        /// An area light on `shape`, sampled from `refs`.
+        pub(crate) fn area(
+            name: impl Into<String>,
+            shape: Shape,
+            meshes: Vec<TriangleMesh>,
+            refs: Vec<Vec3>,
+        ) -> Self {
+            Self {
+                shapes: vec![shape],
+                meshes,
+                refs,
+                // Shapes have sharp silhouettes: integrate the pdf finely.
+                chi2: Chi2Config {
+                    integration_res: 24,
+                    ..Chi2Config::default()
+                },
+                ..Self::new(
+                    name,
+                    Emitter::Area(AreaLight {
+                        shape: 0,
+                        radiance: crate::texture::Tex::Const(Rgb::new(1.0, 2.0, 0.5)),
+                    }),
+                )
+            }
+        }
+
+        /// A light at infinity, sampled from the origin; its density steps
+        /// inside bins, so it is integrated finely.
+        pub(crate) fn environment(name: impl Into<String>, emitter: Emitter) -> Self {
+            Self {
+                refs: vec![Vec3::ZERO],
+                chi2: Chi2Config {
+                    cos_theta_bins: 30,
+                    phi_bins: 60,
+                    samples: 400_000,
+                    integration_res: 32,
+                    ..Chi2Config::default()
+                },
+                exact_power: false,
+                ..Self::new(name, emitter)
+            }
+        }
+
+        fn context<'a>(&'a self, distributions: &'a [Distribution2D]) -> EmitterContext<'a> {
+            EmitterContext {
+                shapes: &self.shapes,
+                meshes: &self.meshes,
+                images: &self.materials.images,
+                materials: &self.materials,
+                distributions,
+            }
+        }
+
+        /// What a ray from `ref_p` along `wi` finds of the light: its
+        /// radiance and the density `pdf_direction` gives it (zero for
+        /// both where it misses the light or sees its back).
+        fn seen_along(&self, ctx: &EmitterContext, ref_p: Vec3, wi: Vec3) -> (Rgb, f32) {
+            if self.emitter.is_environment() {
+                let pdf = self
+                    .emitter
+                    .pdf_direction(ctx, ref_p, Vec3::ZERO, Vec3::Z, wi);
+                return (self.emitter.environment_radiance(ctx, wi), pdf);
+            }
+            let ray = crate::math::Ray::new(ref_p, wi);
+            let mut closest: Option<SurfaceInteraction> = None;
+            for shape in &self.shapes {
+                let mut r = ray;
+                if let Some(t) = closest.as_ref().map(|si| si.t) {
+                    r.t_max = t;
+                }
+                if let Some(si) = crate::shape::tests::closest_hit(shape, &self.meshes, &r) {
+                    closest = Some(si);
+                }
+            }
+            match closest {
+                Some(si) if si.n.dot(wi) < 0.0 => (
+                    self.emitter.surface_radiance(ctx.materials, &si),
+                    self.emitter.pdf_direction(ctx, ref_p, si.p, si.n, wi),
+                ),
+                _ => (Rgb::ZERO, 0.0),
+            }
+        }
+    }
+
+    /// Where rays from lights at infinity start in the emission test.
+    const SPHERE: SceneSphere = SceneSphere {
+        center: Vec3::ZERO,
+        radius: 5.0,
+    };
+
+    /// The table-driven test: every variant of every emitter. Lights that
+    /// are not deltas: the chi-square test of `sample_direction` against
+    /// `pdf_direction` from each reference point, and samples carry the
+    /// radiance and density a traced ray finds. Delta lights: their
+    /// samples say so. Every light: the rays it emits carry on average
+    /// its power, and follow their direction density where it has one
+    /// (chi-square). All failures are collected and reported together.
+    #[test]
+    fn every_emitter_variant() {
+        let mut variants: Vec<Variant> = [
+            area::tests::test_variants(),
+            directional_area::tests::test_variants(),
+            point::tests::test_variants(),
+            spot::tests::test_variants(),
+            projector::tests::test_variants(),
+            directional::tests::test_variants(),
+            constant::tests::test_variants(),
+            envmap::tests::test_variants(),
+            preetham::tests::test_variants(),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let distributions: Vec<Vec<Distribution2D>> = variants
+            .iter_mut()
+            .map(|v| {
+                build_distributions(std::slice::from_mut(&mut v.emitter), &v.materials).unwrap()
+            })
+            .collect();
+        // Šidák's correction keeps the chance that any of the chi-square
+        // tests rejects a correct sampler at 1 %.
+        let tests: usize = variants
+            .iter()
+            .map(|v| {
+                usize::from(v.emission_pdf.is_some())
+                    + if v.emitter.is_delta() {
+                        0
+                    } else {
+                        v.refs.len()
+                    }
+            })
+            .sum();
+        let alpha = 1.0 - 0.99f64.powf(1.0 / tests as f64);
+        let mut failures = Vec::new();
+        for (v, dists) in variants.iter().zip(&distributions) {
+            let ctx = v.context(dists);
+            let cfg = Chi2Config { alpha, ..v.chi2 };
+            for &ref_p in &v.refs {
+                let result = if v.emitter.is_delta() {
+                    check_delta_samples(v, &ctx, ref_p)
+                } else {
+                    check_direction_samples(v, &ctx, ref_p, &cfg)
+                };
+                if let Err(e) = result {
+                    failures.push(format!("{} from {ref_p}: {e}", v.name));
+                }
+            }
+            for &ref_p in &v.dark_refs {
+                let mut rng = crate::sampler::Pcg32::new(1, 1);
+                if (0..1000).any(|_| {
+                    v.emitter
+                        .sample_direction(&ctx, ref_p, rng.next_2d())
+                        .is_some()
+                }) {
+                    failures.push(format!(
+                        "{}: {ref_p} sees its back but gets samples",
+                        v.name
+                    ));
+                }
+            }
+            if let Err(e) = check_emission(v, &ctx, &cfg) {
+                failures.push(format!("{}: emission: {e}", v.name));
+            }
+        }
+        assert!(
+            failures.is_empty(),
+            "{} of {} emitter variants fail:\n{}",
+            failures.len(),
+            variants.len(),
+            failures.join("\n")
+        );
+    }
+
+    fn check_delta_samples(v: &Variant, ctx: &EmitterContext, ref_p: Vec3) -> Result<(), String> {
+        let mut rng = crate::sampler::Pcg32::new(5, 1);
+        for _ in 0..64 {
+            if let Some(s) = v.emitter.sample_direction(ctx, ref_p, rng.next_2d()) {
+                if !(s.is_delta && s.pdf == 1.0 && s.radiance.min_element() >= 0.0) {
+                    return Err(format!("delta light gave {s:?}"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn check_direction_samples(
+        v: &Variant,
+        ctx: &EmitterContext,
+        ref_p: Vec3,
+        cfg: &Chi2Config,
+    ) -> Result<(), String> {
+        chi2_directions(
+            cfg,
+            |r| {
+                v.emitter
+                    .sample_direction(ctx, ref_p, r.next_2d())
+                    .map(|s| (s.wi, s.pdf))
+            },
+            |wi| v.seen_along(ctx, ref_p, wi).1,
+        )?;
+        let mut rng = crate::sampler::Pcg32::new(9, 2);
+        for _ in 0..2000 {
+            let Some(s) = v.emitter.sample_direction(ctx, ref_p, rng.next_2d()) else {
+                continue;
+            };
+            if s.is_delta {
+                return Err("a delta sample from a light that is not delta".into());
+            }
+            let (radiance, _) = v.seen_along(ctx, ref_p, s.wi);
+            if (radiance - s.radiance).abs().max_element() > 1e-3 * radiance.max_element().max(1.0)
+            {
+                return Err(format!(
+                    "sample along {} carries {} but a ray finds {radiance}",
+                    s.wi, s.radiance
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Rays the light emits: their mean weight is its power (within five
+    /// standard errors, where the power is exact), and their directions
+    /// follow `emission_pdf`.
+    fn check_emission(v: &Variant, ctx: &EmitterContext, cfg: &Chi2Config) -> Result<(), String> {
+        let mut rng = crate::sampler::Pcg32::new(3, 4);
+        let n = 200_000;
+        let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+        for _ in 0..n {
+            if let Some(s) = v
+                .emitter
+                .sample_emission(ctx, SPHERE, rng.next_2d(), rng.next_2d())
+            {
+                if (s.ray.d.length() - 1.0).abs() > 1e-4 {
+                    return Err(format!("direction {} is not a unit vector", s.ray.d));
+                }
+                let w = s.weight.as_dvec3();
+                sum += w;
+                sum2 += w * w;
+            }
+        }
+        if v.exact_power {
+            let mean = sum / n as f64;
+            let std_error = ((sum2 / n as f64 - mean * mean) / n as f64)
+                .max(glam::DVec3::ZERO)
+                .powf(0.5);
+            let channel = mean.max_position();
+            let power = v.emitter.power(ctx, SPHERE.radius) as f64;
+            if (mean[channel] - power).abs() > 5.0 * std_error[channel] + 1e-3 * power {
+                return Err(format!(
+                    "mean weight {mean} (± {std_error}) but power {power}"
+                ));
+            }
+        }
+        if let Some(pdf) = v.emission_pdf {
+            // The weights are checked above; the draw claims no density.
+            chi2_directions(
+                cfg,
+                |r| {
+                    v.emitter
+                        .sample_emission(ctx, SPHERE, r.next_2d(), r.next_2d())
+                        .map(|s| (s.ray.d, f32::NAN))
+                },
+                |d| pdf(&v.emitter, d),
+            )?;
+        }
+        Ok(())
+    }
 }

@@ -66,8 +66,23 @@ impl EmitterModel for PointLight {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+    use crate::light::tests::Variant;
+    use crate::light::Emitter;
+
+    /// Emits uniformly over the sphere.
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        let mut v = Variant::new(
+            "point",
+            Emitter::Point(PointLight {
+                position: Vec3::new(1.0, 0.5, -0.5),
+                intensity: Rgb::new(3.0, 1.0, 2.0),
+            }),
+        );
+        v.emission_pdf = Some(|_, _| 0.25 * std::f32::consts::FRAC_1_PI);
+        vec![v]
+    }
 
     #[test]
     fn point_light_pdf_conventions() {

@@ -653,8 +653,10 @@ impl EmitterModel for PreethamLight {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+    use crate::light::tests::Variant;
+    use crate::light::Emitter;
     use crate::testing::params::{MapParams, Value};
 
     fn context(dists: &[Distribution2D]) -> EmitterContext<'_> {
@@ -669,33 +671,22 @@ mod tests {
         vec![l.sampling_distribution()]
     }
 
-    fn chi2(mut light: PreethamLight) {
-        let dists = with_distribution(&mut light);
-        let ctx = context(&dists);
-        crate::light::chi2_environment(&light, &ctx);
-    }
-
     fn sun_at(el: f64, az: f64) -> Vec3 {
         direction_of_elevation_azimuth(el, az)
     }
 
-    #[test]
-    fn chi2_preetham_sky_only() {
-        chi2(PreethamLight::new(
+    /// The sky alone, and the sky with an enlarged sun (5°), rotated: the
+    /// mixture of both strategies against the mixture density.
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        let sky = PreethamLight::new(
             3.0,
             sun_at(35.0, 120.0),
             0.0,
             1.0,
             SUN_RADIUS_DEG as f32,
             Mat3::IDENTITY,
-        ));
-    }
-
-    /// Sky and an enlarged sun (5°), rotated: the mixture of both
-    /// strategies against the mixture density.
-    #[test]
-    fn chi2_preetham_sky_and_large_sun() {
-        let mut light = PreethamLight::new(
+        );
+        let with_sun = PreethamLight::new(
             4.0,
             sun_at(25.0, 250.0),
             1.0,
@@ -703,14 +694,25 @@ mod tests {
             5.0,
             Mat3::from_rotation_x(-0.5) * Mat3::from_rotation_z(0.3),
         );
-        // Check the sun really takes a fair share of the samples.
+        vec![
+            Variant::environment("preetham sky", Emitter::Preetham(sky)),
+            Variant::environment("preetham sky and large sun", Emitter::Preetham(with_sun)),
+        ]
+    }
+
+    /// The enlarged sun takes a fair share of the samples (so the table's
+    /// test of the mixture tests the sun's strategy too).
+    #[test]
+    fn large_sun_takes_a_fair_share_of_samples() {
+        let Emitter::Preetham(mut light) = test_variants()[1].emitter else {
+            unreachable!()
+        };
         with_distribution(&mut light);
         assert!(
             light.sun_prob > 0.3 && light.sun_prob < 0.99,
             "sun probability {}",
             light.sun_prob
         );
-        chi2(light);
     }
 
     /// Light samples carry the radiance a traced ray finds, and estimate

@@ -197,10 +197,11 @@ impl EmitterModel for ProjectorLight {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+    use crate::light::tests::Variant;
+    use crate::light::Emitter;
     use crate::spectrum::luminance;
-    use crate::testing::chi2::{chi2_directions, Chi2Config};
     use glam::Affine3A;
 
     fn tilted_projector(fov_axis: FovAxis) -> ProjectorLight {
@@ -280,19 +281,23 @@ mod tests {
         );
     }
 
-    #[test]
-    fn chi2_projector_emission_directions() {
-        for axis in [FovAxis::X, FovAxis::Y, FovAxis::Diagonal] {
-            let l = tilted_projector(axis);
-            chi2_directions(
-                &Chi2Config {
-                    integration_res: 16,
-                    ..Chi2Config::default()
-                },
-                |r| Some(l.sample_emission_direction(r.next_2d())),
-                |d| l.pdf_emission_direction(d),
-            )
-            .unwrap();
-        }
+    /// A tilted projector under each field-of-view axis.
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        [FovAxis::X, FovAxis::Y, FovAxis::Diagonal]
+            .into_iter()
+            .map(|axis| {
+                let l = tilted_projector(axis);
+                let mut v = Variant::new(
+                    format!("projector, fov along {axis:?}"),
+                    Emitter::Projector(l),
+                );
+                v.emission_pdf = Some(|e, d| match e {
+                    Emitter::Projector(l) => l.pdf_emission_direction(d),
+                    _ => unreachable!(),
+                });
+                v.chi2.integration_res = 16;
+                v
+            })
+            .collect()
     }
 }

@@ -194,9 +194,10 @@ impl EmitterModel for SpotLight {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
-    use crate::testing::chi2::{chi2_directions, Chi2Config};
+    use crate::light::tests::Variant;
+    use crate::light::Emitter;
     use glam::Affine3A;
 
     fn tilted_spot() -> SpotLight {
@@ -258,14 +259,24 @@ mod tests {
         );
     }
 
-    #[test]
-    fn chi2_spot_emission_directions() {
-        let s = tilted_spot();
-        chi2_directions(
-            &Chi2Config::default(),
-            |r| Some(s.sample_emission_direction(r.next_2d())),
-            |d| s.pdf_emission_direction(d),
-        )
-        .unwrap();
+    /// A tilted spot, and one without falloff (its beam is its whole cone).
+    pub(crate) fn test_variants() -> Vec<Variant> {
+        [
+            ("spot", tilted_spot()),
+            (
+                "spot without falloff",
+                SpotLight::new(Transform::IDENTITY, Rgb::new(1.0, 3.0, 2.0), 0.5, 0.5),
+            ),
+        ]
+        .into_iter()
+        .map(|(name, s)| {
+            let mut v = Variant::new(name, Emitter::Spot(s));
+            v.emission_pdf = Some(|e, d| match e {
+                Emitter::Spot(s) => s.pdf_emission_direction(d),
+                _ => unreachable!(),
+            });
+            v
+        })
+        .collect()
     }
 }

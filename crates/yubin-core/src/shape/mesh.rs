@@ -555,13 +555,13 @@ impl ShapeModel for MeshShape {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::shape::tests::check_shape_sampling;
     use crate::shape::Shape;
 
     /// A planar fan of triangles of very different sizes, tilted.
-    fn uneven_planar_mesh() -> TriangleMesh {
+    pub(crate) fn uneven_planar_mesh() -> TriangleMesh {
         let mut positions = vec![Vec3::ZERO];
         let mut indices = Vec::new();
         let angles = [0.0f32, 0.3, 0.5, 1.6, 2.0, 4.0, 6.0];

@@ -20,6 +20,8 @@ mod triangle;
 
 pub use cylinder::Cylinder;
 pub use disk::Disk;
+#[cfg(test)]
+pub(crate) use mesh::tests as mesh_tests;
 pub use mesh::{MeshData, MeshShape, TriangleMesh};
 pub use rectangle::Rectangle;
 pub use sphere::Sphere;
