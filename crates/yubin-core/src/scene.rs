@@ -145,6 +145,19 @@ enum Closest {
 struct Instance {
     group: u32,
     to_world: Transform,
+    /// Where its emitting shapes' world copies are listed in
+    /// `Scene::placed_emitters` (start, count).
+    placed_emitters: (u32, u32),
+}
+
+/// An emitter on a shape inside a shape group: each instance of the group
+/// gets a world copy of the shape that carries its own light.
+#[derive(Clone, Copy, Debug)]
+struct GroupEmitter {
+    group: u32,
+    shape: u32,
+    emitter: ShapeEmitter,
+    options: EmitterOptions,
 }
 
 /// A closest hit before its interaction is computed.
@@ -195,6 +208,9 @@ pub struct Scene {
     pub sampler: Sampler,
     groups: Vec<Group>,
     instances: Vec<Instance>,
+    /// (shape in a group, its world copy in one instance), for each
+    /// emitting shape of each instance (`Instance::placed_emitters`).
+    placed_emitters: Vec<(u32, u32)>,
     /// Some shape's BSDF lets light through (`null`, `mask`): shadow rays
     /// may have to look past their first hit.
     has_pass_through: bool,
@@ -404,9 +420,24 @@ impl Scene {
             }
         };
         si.wo = -ray.d.normalize();
-        si.shape = h.shape;
+        si.shape = match h.instance {
+            Some(inst) => self.placed_shape(inst, h.shape),
+            None => h.shape,
+        };
         si.prim = h.prim;
         si
+    }
+
+    /// The shape a hit on `shape` through instance `inst` is: its world
+    /// copy when it emits (which carries that instance's light), else
+    /// itself.
+    #[inline]
+    fn placed_shape(&self, inst: u32, shape: u32) -> u32 {
+        let (start, count) = self.instances[inst as usize].placed_emitters;
+        self.placed_emitters[start as usize..(start + count) as usize]
+            .iter()
+            .find(|(local, _)| *local == shape)
+            .map_or(shape, |&(_, world)| world)
     }
 
     /// True when anything blocks `ray` within its interval.
@@ -561,8 +592,12 @@ pub enum BuildError {
         /// The index given.
         index: u32,
     },
-    /// Emitting shapes inside shape groups are not supported.
-    EmitterInGroup,
+    /// An emitting sphere in a shape group placed by an instance that
+    /// scales it unevenly (into an ellipsoid, which cannot be sampled).
+    StretchedEmittingSphere {
+        /// The shape.
+        shape: u32,
+    },
     /// A shape group (or the scene's top level) with more primitives than
     /// one BVH can address.
     TooManyPrimitives {
@@ -575,9 +610,12 @@ impl std::fmt::Display for BuildError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             BuildError::BadIndex { what, index } => write!(f, "{what} {index} does not exist"),
-            BuildError::EmitterInGroup => {
-                write!(f, "shapes inside a shapegroup cannot be emitters")
-            }
+            BuildError::StretchedEmittingSphere { shape } => write!(
+                f,
+                "shape {shape} is an emitting sphere in a shapegroup, and an instance scales \
+                 it unevenly (into an ellipsoid, which cannot be sampled as a light); \
+                 use a uniform scale or a mesh"
+            ),
             BuildError::TooManyPrimitives { count } => write!(
                 f,
                 "{count} primitives in one group are more than one BVH can hold \
@@ -602,6 +640,7 @@ pub struct SceneBuilder {
     light_selection: LightSelection,
     groups: Vec<Vec<Item>>,
     instances: Vec<Instance>,
+    group_emitters: Vec<GroupEmitter>,
     camera: Option<Camera>,
     film: Film,
     sampler: Sampler,
@@ -627,6 +666,7 @@ impl SceneBuilder {
             light_selection: LightSelection::default(),
             groups: vec![Vec::new()],
             instances: Vec::new(),
+            group_emitters: Vec::new(),
             camera: None,
             film: Film::default(),
             sampler: Sampler::default(),
@@ -746,9 +786,6 @@ impl SceneBuilder {
                 index: group,
             });
         }
-        if group != 0 && radiance.is_some() {
-            return Err(BuildError::EmitterInGroup);
-        }
         if let Shape::Mesh(m) = shape {
             if m.mesh as usize >= self.meshes.len() {
                 return Err(BuildError::BadIndex {
@@ -773,6 +810,19 @@ impl SceneBuilder {
             None => self.add_bsdf(Bsdf::Diffuse(Diffuse::default())),
         };
         let id = self.shapes.len() as u32;
+        let (emitter, grouped) = if group == 0 {
+            (emitter, None)
+        } else {
+            (None, emitter)
+        };
+        if let Some(emitter) = grouped {
+            self.group_emitters.push(GroupEmitter {
+                group,
+                shape: id,
+                emitter,
+                options: EmitterOptions::default(),
+            });
+        }
         let emitter = emitter.map(|e| {
             if let Shape::Mesh(m) = shape {
                 self.meshes[m.mesh as usize].prepare_area_sampling();
@@ -812,7 +862,23 @@ impl SceneBuilder {
                 index: group,
             });
         }
-        self.instances.push(Instance { group, to_world });
+        // Refused here, where a front end still knows the instance's line.
+        for g in self.group_emitters.iter().filter(|g| g.group == group) {
+            let mut scratch = Vec::new();
+            if let Shape::Sphere(_) = self.shapes[g.shape as usize] {
+                if self.shapes[g.shape as usize]
+                    .placed(&to_world, &mut scratch)
+                    .is_none()
+                {
+                    return Err(BuildError::StretchedEmittingSphere { shape: g.shape });
+                }
+            }
+        }
+        self.instances.push(Instance {
+            group,
+            to_world,
+            placed_emitters: (0, 0),
+        });
         self.groups[0].push(Item::Instance(self.instances.len() as u32 - 1));
         Ok(())
     }
@@ -833,9 +899,64 @@ impl SceneBuilder {
         }
     }
 
-    /// The emitter of shape `shape`, if it is an area light.
+    /// The emitter of shape `shape`, if it is an area light in the world.
     pub fn emitter_of_shape(&self, shape: u32) -> Option<u32> {
         self.shape_info.get(shape as usize)?.emitter
+    }
+
+    /// Sets the visibility and sampling weight of the emitter on shape
+    /// `shape`, in the world or in a shape group (where each instance's
+    /// light gets them).
+    pub fn set_shape_emitter_options(&mut self, shape: u32, options: EmitterOptions) {
+        if let Some(e) = self.emitter_of_shape(shape) {
+            self.set_emitter_options(e, options);
+        }
+        for g in self.group_emitters.iter_mut().filter(|g| g.shape == shape) {
+            g.options = options;
+        }
+    }
+
+    /// Gives each instance a world copy of each emitting shape of its
+    /// group, with its own light: light sampling and the light BVH see
+    /// every placed light where it is, and a hit through the instance is
+    /// reported on the copy (`Scene::placed_shape`). Returns the list the
+    /// instances' `placed_emitters` index.
+    fn place_group_emitters(&mut self) -> Result<Vec<(u32, u32)>, BuildError> {
+        let mut placed = Vec::new();
+        for i in 0..self.instances.len() {
+            let inst = self.instances[i];
+            let start = placed.len() as u32;
+            for g in self.group_emitters.clone() {
+                if g.group != inst.group {
+                    continue;
+                }
+                let copy = self.shapes[g.shape as usize]
+                    .placed(&inst.to_world, &mut self.meshes)
+                    .ok_or(BuildError::StretchedEmittingSphere { shape: g.shape })?;
+                let id = self.shapes.len() as u32;
+                let emitter = self.add_emitter(match g.emitter {
+                    ShapeEmitter::Area(radiance) => Emitter::Area(AreaLight {
+                        shape: id,
+                        radiance,
+                    }),
+                    ShapeEmitter::DirectionalArea(radiance) => {
+                        Emitter::DirectionalArea(crate::light::DirectionalAreaLight {
+                            shape: id,
+                            radiance,
+                        })
+                    }
+                });
+                self.set_emitter_options(emitter, g.options);
+                self.shapes.push(copy);
+                self.shape_info.push(ShapeInfo {
+                    bsdf: self.shape_info[g.shape as usize].bsdf,
+                    emitter: Some(emitter),
+                });
+                placed.push((g.shape, id));
+            }
+            self.instances[i].placed_emitters = (start, placed.len() as u32 - start);
+        }
+        Ok(placed)
     }
 
     /// How next-event estimation will choose emitters.
@@ -889,6 +1010,7 @@ impl SceneBuilder {
                 1e4,
             ))
         });
+        let placed_emitters = self.place_group_emitters()?;
         // Build the groups' BVHs first: instance bounds need them.
         let mut groups: Vec<Group> = self
             .groups
@@ -1030,6 +1152,7 @@ impl SceneBuilder {
             sampler: self.sampler,
             groups,
             instances: self.instances,
+            placed_emitters,
         })
     }
 }

@@ -409,8 +409,8 @@ impl Builder<'_> {
             .sb
             .add_shape_with_emitter(group, shape, bsdf, emission.map(|(e, _)| e))
             .map_err(|e| obj.error(e.to_string()))?;
-        if let (Some((_, options)), Some(e)) = (emission, self.sb.emitter_of_shape(id)) {
-            self.sb.set_emitter_options(e, options);
+        if let Some((_, options)) = emission {
+            self.sb.set_shape_emitter_options(id, options);
         }
         Ok(())
     }

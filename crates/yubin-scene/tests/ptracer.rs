@@ -11,6 +11,8 @@
 //! within 4 standard errors. A missing factor (π, a cosine, η²) moves the
 //! mean by far more.
 
+mod common;
+
 use std::path::Path;
 use yubin_core::render::{render, RenderSettings};
 use yubin_scene::build::load_scene_str;
@@ -65,70 +67,14 @@ const DELTA_AND_INFINITE: &str = r#"<emitter type="spot">
 <emitter type="directional"><vector name="direction" value="0.3, -1, -0.4"/><rgb name="irradiance" value="0.8"/></emitter>
 <emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>"#;
 
-/// K renders (seeds 0..K) of `xml`: per pixel-channel mean and sample
-/// variance across the renders.
-fn renders(xml: &str, spp: u32, k: u32) -> (Vec<f64>, Vec<f64>) {
-    let loaded = load_scene_str(xml, Path::new("ptracer.xml"), &[]).unwrap();
-    let images: Vec<Vec<f32>> = (0..k)
-        .map(|seed| {
-            render(
-                &loaded.scene,
-                loaded.integrator.as_ref(),
-                &RenderSettings { spp, seed },
-                &|_| {},
-            )
-            .image
-            .data
-        })
-        .collect();
-    let n = images[0].len();
-    let mean: Vec<f64> = (0..n)
-        .map(|i| images.iter().map(|im| im[i] as f64).sum::<f64>() / k as f64)
-        .collect();
-    let var = (0..n)
-        .map(|i| {
-            images
-                .iter()
-                .map(|im| (im[i] as f64 - mean[i]).powi(2))
-                .sum::<f64>()
-                / (k - 1) as f64
-        })
-        .collect();
-    (mean, var)
-}
-
 fn assert_same_image(lights: &str, label: &str) {
-    const K: u32 = 16;
-    let (pt, pt_var) = renders(&scene("ptracer", lights), 48, K);
-    let (path, path_var) = renders(&scene("path", lights), 48, K);
-    // With 15 + 15 degrees of freedom a |t| beyond 7 has probability
-    // ~1e-7 per value: over 432 values, a correct pair fails 1 in 10⁴.
-    let mut worst = (0.0f64, 0usize);
-    for i in 0..pt.len() {
-        let se = ((pt_var[i] + path_var[i]) / K as f64).sqrt().max(1e-6);
-        let t = (pt[i] - path[i]).abs() / se;
-        if t > worst.0 {
-            worst = (t, i);
-        }
-    }
-    assert!(
-        worst.0 < 7.0,
-        "{label}: pixel {} channel {}: ptracer {} vs path {} (t = {:.1})",
-        worst.1 / 3,
-        worst.1 % 3,
-        pt[worst.1],
-        path[worst.1],
-        worst.0
+    common::assert_same_image(
+        &scene("ptracer", lights),
+        &scene("path", lights),
+        48,
+        16,
+        label,
     );
-    // The images' means: the sum over pixels of each estimate.
-    let sum = |v: &[f64]| v.iter().sum::<f64>();
-    let se = ((sum(&pt_var) + sum(&path_var)) / K as f64).sqrt();
-    let (a, b) = (sum(&pt), sum(&path));
-    assert!(
-        (a - b).abs() < 4.0 * se,
-        "{label}: image sums ptracer {a} vs path {b} (standard error {se})"
-    );
-    assert!(a > 0.0 && b > 0.0);
 }
 
 #[test]

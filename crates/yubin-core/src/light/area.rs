@@ -23,6 +23,16 @@
 //! cannot drive a radiance (light samples carry no triangle attributes):
 //! that is a load error.
 //!
+//! Inside a `shapegroup`, an area emitter makes every `instance` of the
+//! group a light of its own (so does `directionalarea`): each instance
+//! gets a world-space copy of the shape for light sampling, and a hit
+//! through the instance counts as that light. Instances may rotate,
+//! mirror and scale the group, unevenly too, except that an emitting
+//! `sphere` must keep its shape (an uneven scale is a load error at the
+//! instance). Mitsuba 3 refuses emitters in shape groups ("Instancing of
+//! emitters is not supported"); the copies cost one mesh per instance of
+//! an emitting mesh, so instance emissive meshes sparingly.
+//!
 //! A shape with an area emitter and no BSDF gets a black `diffuse`, as in
 //! Mitsuba 3 (other shapes without one get a grey `diffuse`).
 //!

@@ -260,6 +260,31 @@ impl TriangleMesh {
         }
     }
 
+    /// A copy placed by the instance transform `t`, as an instance of it
+    /// shows it: the same triangles in the same order, with normals that
+    /// keep their side under a mirroring `t` (its winding is reversed
+    /// there), ready for area sampling.
+    pub fn placed(&self, t: &crate::math::Transform) -> TriangleMesh {
+        let mut m = self.clone();
+        m.transform(t);
+        for corners in &mut m.tangents {
+            for c in corners.iter_mut() {
+                *c = t.vector(c.truncate()).normalize_or_zero().extend(c.w);
+            }
+        }
+        if t.swaps_handedness() {
+            for tri in &mut m.indices {
+                tri.swap(1, 2);
+            }
+            for corners in &mut m.tangents {
+                corners.swap(1, 2);
+            }
+        }
+        m.area = None;
+        m.prepare_area_sampling();
+        m
+    }
+
     /// Computes MikkTSpace tangents from the vertices as they are now (call
     /// it after [`TriangleMesh::transform`]). Returns false, computing
     /// nothing, for a mesh without uvs.
@@ -577,6 +602,43 @@ pub(crate) mod tests {
         m.transform(&tilt);
         m.prepare_area_sampling();
         m
+    }
+
+    /// A placed copy shows what an instance with that transform shows:
+    /// moved points, and normals that keep their side (the transformed
+    /// normal), a mirror included; its areas are the placed ones.
+    #[test]
+    fn placed_mesh_is_what_an_instance_shows() {
+        // Flat-shaded: its normals come from the winding alone.
+        let smooth = uneven_planar_mesh();
+        let mesh = TriangleMesh::new(
+            smooth.positions,
+            vec![],
+            vec![],
+            smooth.indices,
+            true,
+            false,
+        )
+        .unwrap();
+        let mirror = crate::math::Transform::new(
+            glam::Affine3A::from_translation(Vec3::new(1.0, 2.0, 0.0))
+                * glam::Affine3A::from_scale(Vec3::new(-1.0, 2.0, 1.0)),
+        )
+        .unwrap();
+        let placed = mesh.placed(&mirror);
+        let u = Vec2::new(0.3, 0.6);
+        for tri in 0..mesh.triangle_count() {
+            let (a, b) = (mesh.sample_triangle(tri, u), placed.sample_triangle(tri, u));
+            let n = mirror.normal(a.n).normalize();
+            assert!((b.n - n).length() < 1e-5, "triangle {tri}: {} vs {n}", b.n);
+            let [p0, p1, p2] = mesh.triangle(tri).map(|p| mirror.point(p));
+            let area = 0.5 * (p1 - p0).cross(p2 - p0).length();
+            assert!(
+                (area * b.pdf - 1.0).abs() < 1e-4,
+                "triangle {tri}: pdf {}",
+                b.pdf
+            );
+        }
     }
 
     #[test]

@@ -197,6 +197,40 @@ pub enum Shape {
     Cylinder(Cylinder),
 }
 
+impl Shape {
+    /// The shape as an instance placed by `t` shows it, in world space
+    /// (for sampling instanced area lights); a mesh is copied into
+    /// `meshes`. `None` for a sphere that `t` would make an ellipsoid.
+    pub fn placed(
+        &self,
+        t: &crate::math::Transform,
+        meshes: &mut Vec<TriangleMesh>,
+    ) -> Option<Shape> {
+        Some(match *self {
+            Shape::Mesh(m) => {
+                let copy = meshes[m.mesh as usize].placed(t);
+                meshes.push(copy);
+                Shape::Mesh(MeshShape {
+                    mesh: meshes.len() as u32 - 1,
+                })
+            }
+            Shape::Sphere(s) => Shape::Sphere(s.placed(t)?),
+            Shape::Rectangle(r) => Shape::Rectangle(Rectangle {
+                to_world: t.after(&r.to_world),
+                ..r
+            }),
+            Shape::Disk(d) => Shape::Disk(Disk {
+                to_world: t.after(&d.to_world),
+                ..d
+            }),
+            Shape::Cylinder(c) => Shape::Cylinder(Cylinder {
+                to_world: t.after(&c.to_world),
+                ..c
+            }),
+        })
+    }
+}
+
 macro_rules! dispatch {
     ($self:expr, $s:ident => $e:expr) => {
         match $self {

@@ -49,9 +49,10 @@ impl Sphere {
         let to_world = p.transform_or_identity("to_world")?;
         let center = p.point("center")?.unwrap_or(Vec3::ZERO);
         let radius = p.float_or("radius", 1.0)?;
-        let scales = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| to_world.vector(a).length());
+        let m3 = Mat3::from(to_world.m.matrix3);
+        let scales = [m3.x_axis, m3.y_axis, m3.z_axis].map(Vec3::length);
         let scale = scales[0];
-        if (scales[1] - scale).abs() > 1e-4 * scale || (scales[2] - scale).abs() > 1e-4 * scale {
+        if uniform_scale(m3).is_none() {
             p.warn(
                 None,
                 &format!(
@@ -59,12 +60,7 @@ impl Sphere {
                 ),
             );
         }
-        let m3 = to_world.m.matrix3;
-        let rotation = Mat3::from_cols(
-            m3.x_axis.normalize().into(),
-            m3.y_axis.normalize().into(),
-            m3.z_axis.normalize().into(),
-        );
+        let rotation = rotation_of(m3);
         if radius.is_nan() || radius <= 0.0 {
             return Err(p.param_error("radius", &format!("must be positive, not {radius}")));
         }
@@ -77,7 +73,40 @@ impl Sphere {
     }
 }
 
+/// The scale of a linear map that is a rotation times a uniform scale,
+/// or `None` when it stretches some axis more than another.
+fn uniform_scale(m: Mat3) -> Option<f32> {
+    let scales = [m.x_axis, m.y_axis, m.z_axis].map(Vec3::length);
+    let s = scales[0];
+    scales
+        .iter()
+        .all(|x| (x - s).abs() <= 1e-4 * s)
+        .then_some(s)
+}
+
+/// The rotation part of a rotation times a uniform scale.
+fn rotation_of(m: Mat3) -> Mat3 {
+    Mat3::from_cols(
+        m.x_axis.normalize(),
+        m.y_axis.normalize(),
+        m.z_axis.normalize(),
+    )
+}
+
 impl Sphere {
+    /// The sphere moved by `t` (an instance's transform); `None` when `t`
+    /// scales unevenly, which would make it an ellipsoid.
+    pub fn placed(&self, t: &crate::math::Transform) -> Option<Sphere> {
+        let m3 = Mat3::from(t.m.matrix3);
+        let scale = uniform_scale(m3)?;
+        Some(Sphere {
+            center: t.point(self.center),
+            radius: self.radius * scale,
+            rotation: rotation_of(m3) * self.rotation,
+            flip_normals: self.flip_normals,
+        })
+    }
+
     /// A sphere with the identity orientation.
     pub fn new(center: Vec3, radius: f32, flip_normals: bool) -> Self {
         Self {

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use yubin_core::render::{render, RenderOutput, RenderSettings};
-use yubin_scene::load_scene;
+use yubin_scene::{load_scene, load_scene_str};
 
 /// `/work/shared` (or `$YUBIN_SHARED`), when present.
 pub fn shared_dir() -> Option<PathBuf> {
@@ -31,4 +31,72 @@ pub fn render_file(path: &Path, defines: &[(String, String)], spp: u32, seed: u3
         &RenderSettings { spp, seed },
         &|_| {},
     )
+}
+
+/// Per pixel-channel mean and sample variance of `k` renders (seeds
+/// 0..k) of the scene `xml`.
+pub fn render_statistics(xml: &str, spp: u32, k: u32) -> (Vec<f64>, Vec<f64>) {
+    let loaded = load_scene_str(xml, Path::new("test.xml"), &[]).unwrap_or_else(|e| panic!("{e}"));
+    let images: Vec<Vec<f32>> = (0..k)
+        .map(|seed| {
+            render(
+                &loaded.scene,
+                loaded.integrator.as_ref(),
+                &RenderSettings { spp, seed },
+                &|_| {},
+            )
+            .image
+            .data
+        })
+        .collect();
+    let n = images[0].len();
+    let mean: Vec<f64> = (0..n)
+        .map(|i| images.iter().map(|im| im[i] as f64).sum::<f64>() / k as f64)
+        .collect();
+    let var = (0..n)
+        .map(|i| {
+            images
+                .iter()
+                .map(|im| (im[i] as f64 - mean[i]).powi(2))
+                .sum::<f64>()
+                / (k - 1) as f64
+        })
+        .collect();
+    (mean, var)
+}
+
+/// Asserts that two scenes converge to the same image, from `k` renders
+/// of each at `spp`: per pixel and channel, Welch's t = (mean_a − mean_b)
+/// / √(s²_a/k + s²_b/k) stays below 7 (with 15 + 15 degrees of freedom
+/// at k = 16, a correct pair exceeds it with probability ~1e-7 per
+/// value), and the images' sums agree within 4 standard errors. A missing
+/// factor (π, a cosine, an area) moves the mean by far more.
+pub fn assert_same_image(a: &str, b: &str, spp: u32, k: u32, label: &str) {
+    let (ma, va) = render_statistics(a, spp, k);
+    let (mb, vb) = render_statistics(b, spp, k);
+    let mut worst = (0.0f64, 0usize);
+    for i in 0..ma.len() {
+        let se = ((va[i] + vb[i]) / k as f64).sqrt().max(1e-6);
+        let t = (ma[i] - mb[i]).abs() / se;
+        if t > worst.0 {
+            worst = (t, i);
+        }
+    }
+    assert!(
+        worst.0 < 7.0,
+        "{label}: pixel {} channel {}: {} vs {} (t = {:.1})",
+        worst.1 / 3,
+        worst.1 % 3,
+        ma[worst.1],
+        mb[worst.1],
+        worst.0
+    );
+    let sum = |v: &[f64]| v.iter().sum::<f64>();
+    let se = ((sum(&va) + sum(&vb)) / k as f64).sqrt();
+    let (x, y) = (sum(&ma), sum(&mb));
+    assert!(
+        (x - y).abs() < 4.0 * se,
+        "{label}: image sums {x} vs {y} (standard error {se})"
+    );
+    assert!(x > 0.0 && y > 0.0, "{label}: black images");
 }
