@@ -143,6 +143,11 @@ pub trait Params {
     fn vector(&mut self, name: &str) -> Result<Option<Vec3>, ParamError>;
     /// A transform, composed in f64.
     fn transform(&mut self, name: &str) -> Result<Option<DMat4>, ParamError>;
+    /// The world-space target of the `<lookat>` in transform `name`, if
+    /// the front end knows one (cameras focus there by default).
+    fn look_at_target(&mut self, _name: &str) -> Option<Vec3> {
+        None
+    }
     /// A constant colour (rgb, spectrum, or a float for grey); a texture here
     /// is an error.
     fn color(&mut self, name: &str, kind: ColorKind) -> Result<Option<Rgb>, ParamError>;

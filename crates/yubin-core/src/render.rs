@@ -123,9 +123,16 @@ fn render_tile(
                 let mut stream = scene.sampler.stream(fx, fy, index, settings.seed);
                 let offset = stream.next_2d();
                 let film_p = Vec2::new(fx as f32, fy as f32) + offset;
-                let ray = scene.camera.generate_ray(film_p, Vec2::splat(0.5));
+                let u_lens = if scene.camera.needs_lens_sample() {
+                    stream.next_2d()
+                } else {
+                    Vec2::ZERO
+                };
                 values.fill(0.0);
-                integrator.sample(scene, &ray, &mut stream, values);
+                // A ray the lens stops (cat's eye) counts as black.
+                if let Some(ray) = scene.camera.generate_ray(film_p, u_lens) {
+                    integrator.sample(scene, &ray, &mut stream, values);
+                }
                 if values.iter().all(|v| v.is_finite()) {
                     buf.splat(&film.filter, Vec2::new(x as f32, y as f32) + offset, values);
                 } else {

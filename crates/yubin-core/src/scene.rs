@@ -971,6 +971,12 @@ impl SceneBuilder {
         self
     }
 
+    /// True unless the camera set is one that paths from the lights cannot
+    /// reach ([`Camera::can_connect`]).
+    pub fn camera_can_connect(&self) -> bool {
+        self.camera.is_none_or(|c| c.can_connect())
+    }
+
     /// Sets the film.
     pub fn film(&mut self, f: Film) -> &mut Self {
         self.film = f;

@@ -102,7 +102,8 @@ fn aov_depth_position_and_normal_of_a_plane() {
             // (HEIGHT − near) / cos θ.
             let ray = scene
                 .camera
-                .generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::splat(0.5));
+                .generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::splat(0.5))
+                .unwrap();
             let expected = (HEIGHT - NEAR) / ray.d.normalize().z.abs();
             assert!(
                 (get(dd) - expected).abs() < 2e-3 * expected,

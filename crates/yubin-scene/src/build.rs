@@ -87,6 +87,22 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
     let mut seed = 0;
     if let Some(sensor) = root.single_child(Category::Sensor)? {
         seed = b.sensor(&sensor.object)?;
+        if integrator.particle_tracer().is_some() && !b.sb.camera_can_connect() {
+            return Err(sensor.object.error(format!(
+                "ptracer connects paths from the lights to the camera, which a{} {} sensor \
+                 cannot be (use perspective, thinlens or physical)",
+                if sensor
+                    .object
+                    .plugin_type
+                    .starts_with(['a', 'e', 'i', 'o', 'u'])
+                {
+                    "n"
+                } else {
+                    ""
+                },
+                sensor.object.plugin_type
+            )));
+        }
     }
     for child in &root.children {
         let obj = &child.object;

@@ -206,6 +206,9 @@ pub struct Property {
     pub loc: Location,
     /// Whether someone read it (or deliberately ignored it).
     pub used: Cell<bool>,
+    /// For a transform with a `<lookat>`: its target, carried through the
+    /// operations after it (where a camera focuses by default).
+    pub look_at_target: Option<Vec3>,
 }
 
 /// A nested object, either declared in place or pulled in by `<ref>`.
@@ -394,6 +397,12 @@ impl Object {
             Value::Transform(m) => Some(*m),
             _ => None,
         })
+    }
+
+    /// The `<lookat>` target of transform parameter `name`, carried
+    /// through the operations written after it, if it has one.
+    pub fn look_at_target(&self, name: &str) -> Option<Vec3> {
+        self.find_prop(name)?.look_at_target
     }
 
     /// Transform parameter `name`, or the identity when absent.
@@ -616,6 +625,7 @@ mod tests {
             value,
             loc: loc(line),
             used: Cell::new(false),
+            look_at_target: None,
         }
     }
 

@@ -141,6 +141,10 @@ impl Params for ObjParams<'_, '_, '_> {
         self.obj.transform_opt(name).map_err(to_param)
     }
 
+    fn look_at_target(&mut self, name: &str) -> Option<Vec3> {
+        self.obj.look_at_target(name)
+    }
+
     fn color(&mut self, name: &str, kind: ColorKind) -> Result<Option<Rgb>, ParamError> {
         if let Some(child) = self.named_child(name) {
             return match child.category {

@@ -488,6 +488,7 @@ impl Parser {
         let name = self
             .property_name(src, el, parent)?
             .ok_or_else(|| src.error(el, format!("<{tag}> needs a \"name\" attribute")))?;
+        let mut look_at_target = None;
         let value = match tag {
             "integer" => Value::Integer(self.integer_value(src, el)?),
             "float" => Value::Float(self.float_value(src, el)?),
@@ -498,7 +499,11 @@ impl Parser {
             "spectrum" => Value::Spectrum(self.spectrum_value(src, el)?),
             "point" => Value::Point(self.vec3(src, el, 0.0)?.as_vec3()),
             "vector" => Value::Vector(self.vec3(src, el, 0.0)?.as_vec3()),
-            "transform" => Value::Transform(self.transform_value(src, el)?),
+            "transform" => {
+                let (m, target) = self.transform_value(src, el)?;
+                look_at_target = target.map(|t| t.as_vec3());
+                Value::Transform(m)
+            }
             _ => return Err(src.error(el, unknown_tag_message(tag, "property"))),
         };
         Ok(Property {
@@ -506,6 +511,7 @@ impl Parser {
             value,
             loc: src.loc(el),
             used: Default::default(),
+            look_at_target,
         })
     }
 
@@ -605,13 +611,24 @@ impl Parser {
     }
 
     /// `<transform>`: its ops composed in order, each applied after the
-    /// previous ones.
-    fn transform_value(&self, src: &Source, el: Node) -> Result<DMat4, SceneError> {
+    /// previous ones; with the last `<lookat>`'s target, moved by the ops
+    /// after it.
+    fn transform_value(
+        &self,
+        src: &Source,
+        el: Node,
+    ) -> Result<(DMat4, Option<DVec3>), SceneError> {
         let mut matrix = DMat4::IDENTITY;
+        let mut target: Option<DVec3> = None;
         for op in el.children().filter(Node::is_element) {
-            matrix = self.transform_op(src, op)? * matrix;
+            let m = self.transform_op(src, op)?;
+            matrix = m * matrix;
+            target = match op.tag_name().name() {
+                "lookat" | "lookAt" => self.point_attribute(src, op, "target").ok(),
+                _ => target.map(|t| m.transform_point3(t)),
+            };
         }
-        Ok(matrix)
+        Ok((matrix, target))
     }
 
     fn transform_op(&self, src: &Source, op: Node) -> Result<DMat4, SceneError> {
@@ -658,15 +675,17 @@ impl Parser {
         }
     }
 
+    /// A point written as attribute `name` of `op`.
+    fn point_attribute(&self, src: &Source, op: Node, name: &str) -> Result<DVec3, SceneError> {
+        let attr = self.required(src, op, name)?;
+        parse_vec3(&attr.value, &attr.loc)
+    }
+
     /// `<lookat origin= target= [up=]>`.
     fn look_at(&self, src: &Source, op: Node) -> Result<DMat4, SceneError> {
         src.check_attributes(op, &["origin", "target", "up"])?;
-        let point = |name| -> Result<DVec3, SceneError> {
-            let attr = self.required(src, op, name)?;
-            parse_vec3(&attr.value, &attr.loc)
-        };
-        let origin = point("origin")?;
-        let target = point("target")?;
+        let origin = self.point_attribute(src, op, "origin")?;
+        let target = self.point_attribute(src, op, "target")?;
         let up = match self.optional(src, op, "up")? {
             Some(attr) => parse_vec3(&attr.value, &attr.loc)?,
             None => DVec3::ZERO,

@@ -1,9 +1,17 @@
 //! Cameras (closed enum). A camera maps a position on the film (in pixels
 //! of the full image, (0, 0) the top-left corner) to a world-space ray.
 
+mod aperture;
+mod orthographic;
 mod perspective;
+pub mod physical;
+mod thinlens;
 
-pub(crate) use perspective::{field_of_view, image_plane_half_extent};
+pub use aperture::Aperture;
+pub use orthographic::Orthographic;
+pub(crate) use perspective::{
+    clip_planes, field_of_view, focus_distance, image_plane_half_extent, rigid_to_world,
+};
 pub use perspective::{FovAxis, Perspective, SensorSample};
 
 use crate::film::Film;
@@ -16,9 +24,55 @@ use glam::Vec2;
 pub type CameraFromParams = fn(&mut dyn Params, [u32; 2]) -> Result<Camera, ParamError>;
 
 /// Every sensor plugin: its scene type string and constructor.
-pub const PLUGINS: &[(&str, CameraFromParams)] = &[("perspective", |p, size| {
-    Ok(Camera::Perspective(Perspective::from_params(p, size)?))
-})];
+pub const PLUGINS: &[(&str, CameraFromParams)] = &[
+    ("perspective", |p, size| {
+        Ok(Camera::Perspective(Perspective::from_params(p, size)?))
+    }),
+    ("thinlens", |p, size| {
+        Ok(Camera::Perspective(thinlens::from_params(p, size)?))
+    }),
+    ("physical", |p, size| {
+        Ok(Camera::Perspective(physical::from_params(p, size)?))
+    }),
+    ("orthographic", |p, size| {
+        Ok(Camera::Orthographic(Orthographic::from_params(p, size)?))
+    }),
+];
+
+/// A non-negative lens size `name` (`default` when absent; required when
+/// `None`).
+fn aperture_parameter(
+    p: &mut dyn Params,
+    name: &str,
+    default: Option<f32>,
+) -> Result<f32, ParamError> {
+    let value = match (p.float(name)?, default) {
+        (Some(v), _) => v,
+        (None, Some(d)) => d,
+        (None, None) => return Err(p.error(&format!("needs \"{name}\""))),
+    };
+    if !(value >= 0.0 && value.is_finite()) {
+        return Err(p.param_error(name, &format!("must be >= 0, not {value}")));
+    }
+    Ok(value)
+}
+
+/// `focus_distance`, or else the distance along the view axis of
+/// `to_world`'s `lookat` target from the camera placed at `rigid`.
+fn focus_or_target(p: &mut dyn Params, rigid: glam::Affine3A) -> Result<f32, ParamError> {
+    if let Some(d) = focus_distance(p)? {
+        return Ok(d);
+    }
+    let target = p
+        .look_at_target("to_world")
+        .map(|t| rigid.inverse().transform_point3(t).z);
+    match target {
+        Some(z) if z > 0.0 => Ok(z),
+        _ => Err(p.error(
+            "needs \"focus_distance\" (or a <lookat> in to_world, whose target it focuses on)",
+        )),
+    }
+}
 
 /// What a `<sensor>` holds: its camera, its film and its sampler, with the
 /// sampler's seed.
@@ -61,50 +115,230 @@ impl Sensor {
 /// A camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Camera {
-    /// `perspective`.
+    /// `perspective`, and `thinlens` and `physical` (with a lens).
     Perspective(Perspective),
+    /// `orthographic`.
+    Orthographic(Orthographic),
 }
 
 impl Camera {
-    /// Connects the camera to the world point `p` (for paths traced from
-    /// the lights); `None` when `p` is not seen.
+    /// True when paths from the lights can be connected to the camera
+    /// (`ptracer` needs it): not for `orthographic`.
+    pub fn can_connect(&self) -> bool {
+        matches!(self, Camera::Perspective(_))
+    }
+
+    /// True when rays use a lens sample.
     #[inline]
-    pub fn sample_towards(&self, p: glam::Vec3) -> Option<SensorSample> {
-        match self {
-            Camera::Perspective(c) => c.sample_towards(p),
-        }
+    pub fn needs_lens_sample(&self) -> bool {
+        matches!(self, Camera::Perspective(c) if c.lens().is_some())
     }
 
-    /// The camera ray along the world direction `d` (unit), its film
-    /// position and importance; `None` outside the image.
+    /// Connects the camera to the world point `p` through the lens point
+    /// that `u_lens` picks (for paths traced from the lights); `None` when
+    /// `p` is not seen or the camera cannot be connected.
     #[inline]
-    pub fn ray_towards(&self, d: glam::Vec3) -> Option<(Ray, Vec2, f32)> {
+    pub fn sample_towards(&self, p: glam::Vec3, u_lens: Vec2) -> Option<SensorSample> {
         match self {
-            Camera::Perspective(c) => c.ray_towards(d),
+            Camera::Perspective(c) => c.sample_towards(p, u_lens),
+            Camera::Orthographic(_) => None,
         }
     }
 
-    /// The camera's position (its pinhole).
-    pub fn position(&self) -> glam::Vec3 {
+    /// A point of the camera that rays leave from, for the uniform sample
+    /// `u` (a lens point, or the pinhole).
+    pub fn sample_lens(&self, u: Vec2) -> glam::Vec3 {
         match self {
-            Camera::Perspective(c) => c.position(),
+            Camera::Perspective(c) => c.sample_lens(u),
+            Camera::Orthographic(c) => c.position(),
         }
     }
 
-    /// Ray directions' density for uniform film positions (see
-    /// [`Perspective::pdf_direction`]).
-    pub fn pdf_direction(&self, d: glam::Vec3) -> f32 {
-        match self {
-            Camera::Perspective(c) => c.pdf_direction(d),
-        }
-    }
-
-    /// The primary ray through film position `film_p`; `_u_lens` is for
-    /// cameras with an aperture.
+    /// The camera ray from `lens_p` (from [`Camera::sample_lens`]) along
+    /// the world direction `d` (unit), its film position and importance;
+    /// `None` outside the image or for cameras that cannot be connected.
     #[inline]
-    pub fn generate_ray(&self, film_p: Vec2, _u_lens: Vec2) -> Ray {
+    pub fn ray_towards(&self, lens_p: glam::Vec3, d: glam::Vec3) -> Option<(Ray, Vec2, f32)> {
         match self {
-            Camera::Perspective(c) => c.generate_ray(film_p),
+            Camera::Perspective(c) => c.ray_towards(lens_p, d),
+            Camera::Orthographic(_) => None,
         }
+    }
+
+    /// The primary ray through film position `film_p` with lens sample
+    /// `u_lens`; `None` when the lens stops it (cat's eye): the sample
+    /// then counts as black.
+    #[inline]
+    pub fn generate_ray(&self, film_p: Vec2, u_lens: Vec2) -> Option<Ray> {
+        match self {
+            Camera::Perspective(c) => c.generate_ray(film_p, u_lens),
+            Camera::Orthographic(c) => Some(c.generate_ray(film_p)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::params::MapParams;
+    use glam::{Affine3A, Vec3};
+
+    fn build(kind: &str, p: MapParams) -> Camera {
+        let (_, build) = PLUGINS.iter().find(|(n, _)| *n == kind).unwrap();
+        let mut p = p;
+        build(&mut p, [64, 48]).unwrap()
+    }
+
+    fn rays(c: &Camera, u_lens: Vec2) -> Vec<Ray> {
+        [
+            Vec2::new(0.5, 0.5),
+            Vec2::new(63.0, 2.0),
+            Vec2::new(10.25, 40.75),
+        ]
+        .map(|f| c.generate_ray(f, u_lens).unwrap())
+        .to_vec()
+    }
+
+    fn assert_same_rays(a: &[Ray], b: &[Ray]) {
+        for (x, y) in a.iter().zip(b) {
+            assert!((x.o - y.o).length() < 1e-5, "{} vs {}", x.o, y.o);
+            assert!((x.d - y.d).length() < 1e-6, "{} vs {}", x.d, y.d);
+            assert!((x.t_min / y.t_min - 1.0).abs() < 1e-5);
+        }
+    }
+
+    /// A thin lens of radius 0, and a physical camera at f/10⁷, are the
+    /// pinhole camera (up to float noise), whatever the lens sample.
+    #[test]
+    fn lenses_without_aperture_are_the_pinhole() {
+        let pinhole = build("perspective", MapParams::new().float("fov", 40.0));
+        let thin = build(
+            "thinlens",
+            MapParams::new()
+                .float("fov", 40.0)
+                .float("aperture_radius", 0.0)
+                .float("focus_distance", 3.0),
+        );
+        let physical = build(
+            "physical",
+            MapParams::new()
+                .float("f_stop", 1e7)
+                .float("focus_distance", 3.0),
+        );
+        // A 4:3 film is narrower than the 3:2 sensor: its height spans it.
+        let pinhole_50mm = build(
+            "perspective",
+            MapParams::new()
+                .float("fov", physical::fov_degrees(24.0, 50.0))
+                .string("fov_axis", "y"),
+        );
+        for u in [Vec2::new(0.1, 0.9), Vec2::new(0.7, 0.3)] {
+            assert_same_rays(&rays(&thin, u), &rays(&pinhole, u));
+            assert_same_rays(&rays(&physical, u), &rays(&pinhole_50mm, u));
+        }
+    }
+
+    /// Values read from Mitsuba 3.9.1 `scalar_rgb` (`sample_ray` of a
+    /// 200×100 `thinlens`, fov 90, aperture 0.5, focus 4, with aperture
+    /// sample (0.9, 0.3)); Mitsuba's origins lie on the near plane, where
+    /// yubin's rays start (t_min).
+    #[test]
+    fn thinlens_rays_match_mitsuba() {
+        let c = Perspective::new(Affine3A::IDENTITY, 90.0, FovAxis::X, 200, 100, 0.01, 1e4)
+            .with_lens(Aperture::disk(0.5, 4.0));
+        for (ndc, o, d) in [
+            (
+                (0.5, 0.5),
+                (0.36863, -0.15269),
+                (-0.09193, 0.03808, 0.99504),
+            ),
+            ((0.0, 0.5), (0.37863, -0.15269), (0.6718, 0.02833, 0.74019)),
+            (
+                (0.5, 0.0),
+                (0.36863, -0.14769),
+                (-0.08108, 0.47241, 0.87764),
+            ),
+            (
+                (0.25, 0.75),
+                (0.37363, -0.15519),
+                (0.37041, -0.19241, 0.90872),
+            ),
+        ] {
+            let film_p = Vec2::new(ndc.0 * 200.0, ndc.1 * 100.0);
+            let r = c.generate_ray(film_p, Vec2::new(0.9, 0.3)).unwrap();
+            let start = r.at(r.t_min);
+            assert!(
+                (start - Vec3::new(o.0, o.1, 0.01)).length() < 2e-5,
+                "{ndc:?}: {start}"
+            );
+            assert!(
+                (r.d - Vec3::new(d.0, d.1, d.2)).length() < 2e-5,
+                "{ndc:?}: {}",
+                r.d
+            );
+        }
+    }
+
+    /// Mitsuba 3.9.1's `principal_point_offset_x` 0.1 and `_y` 0.2 on a
+    /// 200×100, fov 90 image: the centre pixel looks along (−0.2, −0.2, 1).
+    #[test]
+    fn principal_point_offset_matches_mitsuba() {
+        let c = Perspective::new(Affine3A::IDENTITY, 90.0, FovAxis::X, 200, 100, 0.01, 1e4)
+            .with_principal_point(Vec2::new(0.1, 0.2));
+        let r = c.generate_ray(Vec2::new(100.0, 50.0), Vec2::ZERO).unwrap();
+        assert!((r.d - Vec3::new(-0.2, -0.2, 1.0).normalize()).length() < 1e-5);
+        let s = c.sample_towards(r.at(3.0), Vec2::ZERO).unwrap();
+        assert!((s.film_p - Vec2::new(100.0, 50.0)).length() < 1e-3);
+    }
+
+    /// Through a lens, connecting a point to the camera finds the film
+    /// position whose ray from that lens point passes through it, with
+    /// the pinhole importance of that ray's direction.
+    #[test]
+    fn lens_connection_inverts_generate_ray() {
+        let to_world =
+            Affine3A::from_translation(Vec3::new(0.5, 1.0, -2.0)) * Affine3A::from_rotation_y(0.3);
+        let lens = Aperture {
+            blades: 6,
+            bias: 0.3,
+            ..Aperture::disk(0.2, 3.0)
+        };
+        let c = Perspective::new(to_world, 50.0, FovAxis::X, 64, 48, 0.01, 1e4).with_lens(lens);
+        for (film_p, u) in [
+            (Vec2::new(10.5, 20.25), Vec2::new(0.3, 0.8)),
+            (Vec2::new(50.0, 5.0), Vec2::new(0.9, 0.1)),
+        ] {
+            let r = c.generate_ray(film_p, u).unwrap();
+            let s = c.sample_towards(r.at(5.0), u).unwrap();
+            assert!(
+                (s.film_p - film_p).length() < 1e-2,
+                "{film_p} vs {}",
+                s.film_p
+            );
+            assert!((s.origin - r.o).length() < 1e-5 && (s.wi + r.d).length() < 1e-4);
+            let (_, f, importance) = c.ray_towards(s.origin, r.d).unwrap();
+            assert!((f - film_p).length() < 1e-2 && (importance / s.importance - 1.0).abs() < 1e-4);
+        }
+    }
+
+    /// A physical camera focuses on its lookat target when given no
+    /// distance, and refuses impossible lenses.
+    #[test]
+    fn physical_focus_and_bad_parameters() {
+        let bad = |p: MapParams| {
+            let mut p = p;
+            physical::from_params(&mut p, [64, 48])
+                .unwrap_err()
+                .to_string()
+        };
+        let with_focus = || MapParams::new().float("focus_distance", 2.0);
+        assert!(bad(with_focus().float("f_stop", 0.0)).contains("f_stop"));
+        for blades in [1, 2, -3] {
+            let p = with_focus().with("blades", crate::testing::params::Value::Integer(blades));
+            assert!(bad(p).contains("blades"));
+        }
+        assert!(bad(with_focus().float("aperture_bias", 1.0)).contains("aperture_bias"));
+        assert!(bad(MapParams::new().float("focus_distance", -1.0)).contains("focus_distance"));
+        assert!(bad(MapParams::new()).contains("focus_distance"));
     }
 }

@@ -9,6 +9,7 @@
 //! | `far_clip`  | float     | 10000   | nothing farther                                        |
 //! | `to_world`  | transform | identity| camera to world; the camera looks down +z, +y is up     |
 //! | `focus_distance` | float | —     | accepted as Mitsuba does; a pinhole has no focus, so it has no effect |
+//! | `principal_point_offset_x`, `_y` | float | 0 | shift of the image centre, in fractions of the film's width and height (Mitsuba's) |
 //!
 //! ```xml
 //! <sensor type="perspective">
@@ -21,6 +22,7 @@
 //! the *left*, so the image's left edge is camera +x and `lookat`
 //! matrices (columns left, up, forward, origin) produce unmirrored images.
 
+use super::Aperture;
 use crate::math::Ray;
 use crate::params::{ParamError, Params};
 use glam::{Affine3A, Vec2, Vec3};
@@ -51,6 +53,11 @@ pub struct Perspective {
     resolution: Vec2,
     near_clip: f32,
     far_clip: f32,
+    /// Shift of the image centre in film fractions (Mitsuba's principal
+    /// point offset).
+    principal_point: Vec2,
+    /// The lens; `None` for a pinhole.
+    lens: Option<Aperture>,
 }
 
 impl Perspective {
@@ -58,31 +65,40 @@ impl Perspective {
     /// `size` pixels.
     pub fn from_params(p: &mut dyn Params, size: [u32; 2]) -> Result<Self, ParamError> {
         let (fov, fov_axis) = field_of_view(p)?;
-        let near = p.float_or("near_clip", 0.01)?;
-        let far = p.float_or("far_clip", 10_000.0)?;
-        if !(near > 0.0 && far > near) {
-            return Err(p.param_error(
-                "near_clip",
-                &format!("clip planes must satisfy 0 < near < far (near {near}, far {far})"),
-            ));
-        }
+        let (near, far) = clip_planes(p)?;
         // Every projective camera of Mitsuba reads `focus_distance`; a
         // pinhole has no focus, so it only has to be a valid distance.
-        if let Some(d) = p.float("focus_distance")? {
-            if d.is_nan() || d <= 0.0 {
-                return Err(p.param_error("focus_distance", "must be positive"));
-            }
-        }
-        // Mitsuba's to_world may carry a scale; the camera uses its rigid part.
-        let m = p.transform_or_identity("to_world")?.m;
-        let rigid = Affine3A::from_cols(
-            m.matrix3.x_axis.normalize(),
-            m.matrix3.y_axis.normalize(),
-            m.matrix3.z_axis.normalize(),
-            m.translation,
+        focus_distance(p)?;
+        let principal_point = Vec2::new(
+            p.float_or("principal_point_offset_x", 0.0)?,
+            p.float_or("principal_point_offset_y", 0.0)?,
         );
+        if !principal_point.is_finite() {
+            return Err(p.error("principal_point_offset_x/_y must be finite"));
+        }
+        let rigid = rigid_to_world(p)?;
         p.warn_ignored(&["shutter_open", "shutter_close"], "no motion blur yet");
-        Ok(Self::new(rigid, fov, fov_axis, size[0], size[1], near, far))
+        Ok(Self::new(rigid, fov, fov_axis, size[0], size[1], near, far)
+            .with_principal_point(principal_point))
+    }
+
+    /// The camera with the image centre shifted by `offset` (film
+    /// fractions).
+    pub fn with_principal_point(mut self, offset: Vec2) -> Self {
+        self.principal_point = offset;
+        self
+    }
+
+    /// The camera with a lens: rays start on `lens` and meet at its focus
+    /// distance.
+    pub fn with_lens(mut self, lens: Aperture) -> Self {
+        self.lens = Some(lens);
+        self
+    }
+
+    /// The lens, if the camera has one.
+    pub fn lens(&self) -> Option<&Aperture> {
+        self.lens.as_ref()
     }
 
     /// A camera for a `width`×`height` film.
@@ -102,29 +118,79 @@ impl Perspective {
             resolution: Vec2::new(width as f32, height as f32),
             near_clip,
             far_clip,
+            principal_point: Vec2::ZERO,
+            lens: None,
         }
     }
 
-    /// The ray through `film_p` (pixels, top-left origin).
+    /// The ray through `film_p` (pixels, top-left origin), starting on the
+    /// lens at the point the uniform sample `u_lens` picks (unused by a
+    /// pinhole); `None` when the cat's-eye aperture stops it.
     #[inline]
-    pub fn generate_ray(&self, film_p: Vec2) -> Ray {
-        let ndc = film_p / self.resolution;
+    pub fn generate_ray(&self, film_p: Vec2, u_lens: Vec2) -> Option<Ray> {
+        let ndc = film_p / self.resolution + self.principal_point;
         // Left edge of the image is camera +x; top is camera +y.
         let local = Vec3::new(
             (1.0 - 2.0 * ndc.x) * self.tan_half.x,
             (1.0 - 2.0 * ndc.y) * self.tan_half.y,
             1.0,
         );
-        let inv_len = local.length().recip();
-        let d = self.to_world.transform_vector3(local * inv_len).normalize();
-        Ray {
-            o: self.to_world.translation.into(),
-            d,
+        let (origin, dir) = match &self.lens {
+            None => (Vec3::ZERO, local.normalize()),
+            Some(lens) => {
+                let focus = local * lens.focus_distance;
+                let a = lens.sample(u_lens);
+                if !lens.passes(a, focus) {
+                    return None;
+                }
+                let o = a.extend(0.0);
+                (o, (focus - o).normalize())
+            }
+        };
+        Some(Ray {
+            o: self.to_world.transform_point3(origin),
+            d: self.to_world.transform_vector3(dir).normalize(),
             // Clip planes are perpendicular to the view axis.
-            t_min: self.near_clip / (local.z * inv_len),
-            t_max: self.far_clip / (local.z * inv_len),
-        }
+            t_min: self.near_clip / dir.z,
+            t_max: self.far_clip / dir.z,
+        })
     }
+}
+
+/// `near_clip` and `far_clip`, checked: 0 < near < far.
+pub(crate) fn clip_planes(p: &mut dyn Params) -> Result<(f32, f32), ParamError> {
+    let near = p.float_or("near_clip", 0.01)?;
+    let far = p.float_or("far_clip", 10_000.0)?;
+    if !(near > 0.0 && far > near) {
+        return Err(p.param_error(
+            "near_clip",
+            &format!("clip planes must satisfy 0 < near < far (near {near}, far {far})"),
+        ));
+    }
+    Ok((near, far))
+}
+
+/// Validates `focus_distance` if given (positive); returns it.
+pub(crate) fn focus_distance(p: &mut dyn Params) -> Result<Option<f32>, ParamError> {
+    match p.float("focus_distance")? {
+        Some(d) if d.is_nan() || d <= 0.0 => Err(p.param_error(
+            "focus_distance",
+            &format!("must be a positive distance, not {d}"),
+        )),
+        d => Ok(d),
+    }
+}
+
+/// `to_world` without its scale: Mitsuba's projective cameras use only
+/// its rigid part.
+pub(crate) fn rigid_to_world(p: &mut dyn Params) -> Result<Affine3A, ParamError> {
+    let m = p.transform_or_identity("to_world")?.m;
+    Ok(Affine3A::from_cols(
+        m.matrix3.x_axis.normalize(),
+        m.matrix3.y_axis.normalize(),
+        m.matrix3.z_axis.normalize(),
+        m.translation,
+    ))
 }
 
 impl Perspective {
@@ -149,24 +215,55 @@ impl Perspective {
     }
 
     /// The film position (pixels of the full image) that sees the local
-    /// direction `local`, if any.
+    /// direction `local` through the lens centre (the chief ray), if any.
     fn local_to_film(&self, local: Vec3) -> Option<Vec2> {
         if local.z <= 0.0 {
             return None;
         }
         let plane = Vec2::new(local.x, local.y) / (local.z * self.tan_half);
-        let ndc = 0.5 * (Vec2::ONE - plane);
+        let ndc = 0.5 * (Vec2::ONE - plane) - self.principal_point;
         (ndc.cmpge(Vec2::ZERO).all() && ndc.cmplt(Vec2::ONE).all()).then(|| ndc * self.resolution)
     }
 
-    /// The camera ray in the world direction `d` (unit), with its clip
-    /// interval, the film position it comes from and its importance (as
-    /// in [`Perspective::sample_towards`]); `None` outside the image.
-    pub fn ray_towards(&self, d: Vec3) -> Option<(Ray, Vec2, f32)> {
+    /// A point on the lens (world space) for the uniform sample `u`: where
+    /// a path from the lights meets the camera. The pinhole for a camera
+    /// without a lens.
+    pub fn sample_lens(&self, u: Vec2) -> Vec3 {
+        let a = self.lens.map_or(Vec2::ZERO, |l| l.sample(u));
+        self.to_world.transform_point3(a.extend(0.0))
+    }
+
+    /// The film position that a ray leaving lens point `a` (camera space)
+    /// along local direction `dir` comes from: where its focus point is
+    /// seen through the lens centre; `None` outside the image or stopped by
+    /// the cat's eye.
+    fn film_through_lens(&self, a: Vec3, dir: Vec3) -> Option<Vec2> {
+        match &self.lens {
+            None => self.local_to_film(dir),
+            Some(lens) => {
+                if dir.z <= 0.0 {
+                    return None;
+                }
+                let focus = a + dir * (lens.focus_distance / dir.z);
+                if !lens.passes(a.truncate(), focus) {
+                    return None;
+                }
+                self.local_to_film(focus)
+            }
+        }
+    }
+
+    /// The camera ray from lens point `lens_p` (from
+    /// [`Perspective::sample_lens`]) in the world direction `d` (unit),
+    /// with its clip interval, the film position it comes from and its
+    /// importance (as in [`Perspective::sample_towards`]); `None` outside
+    /// the image.
+    pub fn ray_towards(&self, lens_p: Vec3, d: Vec3) -> Option<(Ray, Vec2, f32)> {
         let local = self.to_local.transform_vector3(d).normalize_or_zero();
-        let film_p = self.local_to_film(local)?;
+        let a = self.to_local.transform_point3(lens_p);
+        let film_p = self.film_through_lens(a, local)?;
         let ray = Ray {
-            o: self.position(),
+            o: lens_p,
             d,
             t_min: self.near_clip / local.z,
             t_max: self.far_clip / local.z,
@@ -181,23 +278,33 @@ impl Perspective {
             / (4.0 * self.tan_half.x * self.tan_half.y * local.z.powi(3))
     }
 
-    /// Connects the camera to the world point `p`: where `p` appears on the
-    /// film and the importance of that direction (see
-    /// [`Perspective::pdf_direction`]); `None` when `p` is outside the
-    /// frustum or the clip range.
-    pub fn sample_towards(&self, p: Vec3) -> Option<SensorSample> {
+    /// Connects the camera to the world point `p` through the lens point
+    /// the uniform sample `u_lens` picks: where `p` appears on the film and
+    /// the importance of that direction (see [`Perspective::pdf_direction`]);
+    /// `None` when `p` is outside the frustum or the clip range.
+    ///
+    /// With a lens, the lens point is sampled as camera rays sample it, so
+    /// its density cancels: the ray through lens point a and film position
+    /// x has, given a, the direction density 1 / (A cos³θ) of a pinhole at
+    /// a, θ its own angle to the axis (both directions are central
+    /// projections of the plane in focus), and the film position is where
+    /// its focus point appears through the lens centre.
+    pub fn sample_towards(&self, p: Vec3, u_lens: Vec2) -> Option<SensorSample> {
+        let lens_p = self.sample_lens(u_lens);
         let local = self.to_local.transform_point3(p);
         if !(local.z >= self.near_clip && local.z <= self.far_clip) {
             return None;
         }
-        let dir = local.normalize();
-        let film_p = self.local_to_film(dir)?;
+        let a = self.to_local.transform_point3(lens_p);
+        let dir = (local - a).normalize();
+        let film_p = self.film_through_lens(a, dir)?;
         let importance = self.importance(dir);
-        let world_to_camera = self.position() - p;
-        let dist = world_to_camera.length();
+        let to_camera = lens_p - p;
+        let dist = to_camera.length();
         Some(SensorSample {
             film_p,
-            wi: world_to_camera / dist,
+            origin: lens_p,
+            wi: to_camera / dist,
             dist,
             importance,
         })
@@ -210,6 +317,8 @@ impl Perspective {
 pub struct SensorSample {
     /// Film position in pixels of the full image.
     pub film_p: Vec2,
+    /// The point of the camera reached (the pinhole or a lens point).
+    pub origin: Vec3,
     /// Unit direction from the point towards the camera.
     pub wi: Vec3,
     /// Distance from the point to the camera.
@@ -310,13 +419,19 @@ mod tests {
     fn image_corners_follow_mitsuba_convention() {
         // Camera at the origin looking down +z with identity to_world.
         let c = Perspective::new(Affine3A::IDENTITY, 90.0, FovAxis::X, 200, 100, 0.01, 1e4);
-        let center = c.generate_ray(Vec2::new(100.0, 50.0));
+        let center = c
+            .generate_ray(Vec2::new(100.0, 50.0), Vec2::splat(0.5))
+            .unwrap();
         assert!((center.d - Vec3::Z).length() < 1e-6);
         // The left edge of the image is camera +x, at 45° for a 90° fov.
-        let left = c.generate_ray(Vec2::new(0.0, 50.0));
+        let left = c
+            .generate_ray(Vec2::new(0.0, 50.0), Vec2::splat(0.5))
+            .unwrap();
         assert!((left.d - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-6);
         // The top edge is +y, with the aspect ratio applied.
-        let top = c.generate_ray(Vec2::new(100.0, 0.0));
+        let top = c
+            .generate_ray(Vec2::new(100.0, 0.0), Vec2::splat(0.5))
+            .unwrap();
         assert!((top.d - Vec3::new(0.0, 0.5, 1.0).normalize()).length() < 1e-6);
     }
 
@@ -331,8 +446,8 @@ mod tests {
             Vec2::new(32.0, 24.0),
             Vec2::new(60.0, 1.0),
         ] {
-            let r = c.generate_ray(film_p);
-            let s = c.sample_towards(r.at(7.0)).unwrap();
+            let r = c.generate_ray(film_p, Vec2::splat(0.5)).unwrap();
+            let s = c.sample_towards(r.at(7.0), Vec2::ZERO).unwrap();
             assert!(
                 (s.film_p - film_p).length() < 1e-3,
                 "{film_p} vs {}",
@@ -344,11 +459,18 @@ mod tests {
         }
         // Behind the camera and beyond the image's edge: no connection.
         assert!(c
-            .sample_towards(c.generate_ray(Vec2::new(3.0, 3.0)).at(-2.0))
+            .sample_towards(
+                c.generate_ray(Vec2::new(3.0, 3.0), Vec2::splat(0.5))
+                    .unwrap()
+                    .at(-2.0),
+                Vec2::ZERO
+            )
             .is_none());
-        let wide = c.generate_ray(Vec2::new(0.0, 24.0));
+        let wide = c
+            .generate_ray(Vec2::new(0.0, 24.0), Vec2::splat(0.5))
+            .unwrap();
         let outside = to_world.transform_point3(Vec3::new(10.0, 0.0, 1.0));
-        assert!(c.sample_towards(outside).is_none() && wide.d.is_finite());
+        assert!(c.sample_towards(outside, Vec2::ZERO).is_none() && wide.d.is_finite());
     }
 
     /// The camera's importance, as a density of ray directions, is the
@@ -369,7 +491,10 @@ mod tests {
                     ..Chi2Config::default()
                 },
                 |r| {
-                    let d = c.generate_ray(r.next_2d() * res).d;
+                    let d = c
+                        .generate_ray(r.next_2d() * res, Vec2::splat(0.5))
+                        .unwrap()
+                        .d;
                     Some((d, c.pdf_direction(d)))
                 },
                 |d| c.pdf_direction(d),
@@ -381,7 +506,9 @@ mod tests {
     #[test]
     fn fov_axis_y_and_clip_planes() {
         let c = Perspective::new(Affine3A::IDENTITY, 90.0, FovAxis::Y, 200, 100, 2.0, 10.0);
-        let r = c.generate_ray(Vec2::new(0.0, 50.0));
+        let r = c
+            .generate_ray(Vec2::new(0.0, 50.0), Vec2::splat(0.5))
+            .unwrap();
         assert!((r.d - Vec3::new(2.0, 0.0, 1.0).normalize()).length() < 1e-6);
         assert!((r.at(r.t_min).z - 2.0).abs() < 1e-5 && (r.at(r.t_max).z - 10.0).abs() < 1e-4);
     }

@@ -40,7 +40,9 @@
 //! Emitters with `visible = false` are not rendered directly; there is no
 //! "indirect visibility" for light paths, so `visible_indirect` has no
 //! effect (a light seen in a mirror shows). Only cameras that can be
-//! connected to a point (`perspective`) can be used. `ptracer` cannot be
+//! connected to a point (`perspective`, `thinlens`, `physical`: through
+//! the lens as it samples itself) can be used; `orthographic` is a load
+//! error. `ptracer` cannot be
 //! nested in `aov` or `moment`.
 
 use super::{max_depth_param, sample_chosen_light, Integrator};
@@ -181,7 +183,7 @@ impl ParticleTracer {
     fn splat_visible_emitter(&self, scene: &Scene, sampler: &mut SampleStream, out: &mut Splats) {
         let u_pick = sampler.next_1d();
         let u = sampler.next_2d();
-        let c = scene.camera.position();
+        let c = scene.camera.sample_lens(lens_sample(scene, sampler));
         let Some((light, pick_pdf)) = scene.pick_light(u_pick, c, Vec3::ZERO) else {
             return;
         };
@@ -193,7 +195,7 @@ impl ParticleTracer {
         let Some(ls) = sample_chosen_light(scene, light, c, u) else {
             return;
         };
-        let Some((mut ray, film_p, importance)) = scene.camera.ray_towards(ls.wi) else {
+        let Some((mut ray, film_p, importance)) = scene.camera.ray_towards(c, ls.wi) else {
             return;
         };
         if ls.dist.is_finite() {
@@ -255,7 +257,8 @@ impl ParticleTracer {
             let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
             if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) {
-                self.connect_to_camera(scene, &si, bsdf, wo, beta, depth, out);
+                let u_lens = lens_sample(scene, sampler);
+                self.connect_to_camera(scene, &si, bsdf, wo, beta, depth, u_lens, out);
             }
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
@@ -290,9 +293,10 @@ impl ParticleTracer {
         wo: Vec3,
         beta: Rgb,
         depth: u32,
+        u_lens: Vec2,
         out: &mut Splats,
     ) {
-        let Some(sensor) = scene.camera.sample_towards(si.p) else {
+        let Some(sensor) = scene.camera.sample_towards(si.p, u_lens) else {
             return;
         };
         let ctx = BsdfContext {
@@ -303,7 +307,7 @@ impl ParticleTracer {
             return;
         }
         let correction = shading_normal_correction(si, si.wo, sensor.wi);
-        let shadow = si.spawn_ray_to(scene.camera.position());
+        let shadow = si.spawn_ray_to(sensor.origin);
         let tr = scene.transmittance(&shadow, self.crossings(depth + 1));
         if tr > 0.0 {
             let w = correction * tr * sensor.importance / (sensor.dist * sensor.dist);
@@ -319,6 +323,16 @@ impl ParticleTracer {
             d if d < 0 => u32::MAX,
             d => (d as u32).saturating_sub(segments),
         }
+    }
+}
+
+/// The lens sample of a connection to the camera: drawn only for cameras
+/// with a lens, so that pinhole images keep their sample streams.
+fn lens_sample(scene: &Scene, sampler: &mut SampleStream) -> Vec2 {
+    if scene.camera.needs_lens_sample() {
+        sampler.next_2d()
+    } else {
+        Vec2::ZERO
     }
 }
 

@@ -1,0 +1,186 @@
+//! Cameras with a lens: `ptracer` (paths from the lights, connected
+//! through the lens) converges to the image `path` renders with
+//! `thinlens` and with `physical` (pentagonal, biased aperture with cat's
+//! eye); `physical` focuses on its `lookat` target by default; bad camera
+//! settings and `ptracer` with an `orthographic` sensor are load errors
+//! with the line.
+
+mod common;
+
+use std::path::Path;
+use yubin_core::render::{render, RenderSettings};
+use yubin_scene::load_scene_str;
+
+fn scene(integrator: &str, sensor: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+<integrator type="{integrator}"><integer name="max_depth" value="4"/></integrator>
+{sensor}
+<shape type="rectangle">
+  <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+  <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.6, 0.5"/></bsdf>
+</shape>
+<shape type="sphere">
+  <point name="center" value="0.4, 0.4, -0.6"/><float name="radius" value="0.4"/>
+  <bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.2, 0.5, 0.8"/></bsdf>
+</shape>
+<shape type="sphere">
+  <point name="center" value="-0.6, 0.2, 0.8"/><float name="radius" value="0.2"/>
+  <emitter type="area"><rgb name="radiance" value="8, 6, 4"/></emitter>
+</shape>
+<shape type="rectangle">
+  <transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/><translate y="2.5"/></transform>
+  <emitter type="area"><rgb name="radiance" value="6"/></emitter>
+</shape>
+</scene>"#
+    )
+}
+
+fn sensor(kind: &str, params: &str) -> String {
+    format!(
+        r#"<sensor type="{kind}">
+  {params}
+  <transform name="to_world"><lookat origin="0, 1.5, 4" target="0, 0.3, 0" up="0, 1, 0"/></transform>
+  <film type="hdrfilm"><integer name="width" value="12"/><integer name="height" value="10"/>
+    <rfilter type="box"/></film>
+</sensor>"#
+    )
+}
+
+#[test]
+fn ptracer_matches_path_through_a_thin_lens() {
+    let s = sensor(
+        "thinlens",
+        r#"<float name="fov" value="45"/><float name="aperture_radius" value="0.3"/>"#,
+    );
+    common::assert_same_image(
+        &scene("ptracer", &s),
+        &scene("path", &s),
+        48,
+        16,
+        "thinlens",
+    );
+}
+
+#[test]
+fn ptracer_matches_path_through_a_physical_lens() {
+    let s = sensor(
+        "physical",
+        r#"<float name="focal_length" value="35"/><float name="f_stop" value="0.2"/>
+           <integer name="blades" value="5"/><float name="aperture_bias" value="0.4"/>
+           <float name="cats_eye" value="150"/><float name="focus_distance" value="3"/>"#,
+    );
+    common::assert_same_image(
+        &scene("ptracer", &s),
+        &scene("path", &s),
+        48,
+        16,
+        "physical",
+    );
+}
+
+/// Without `focus_distance`, `physical` focuses on the lookat target:
+/// the same image, bit for bit, as the distance written out.
+#[test]
+fn physical_focuses_on_the_lookat_target() {
+    let render_with = |focus: &str| {
+        let xml = scene(
+            "path",
+            &sensor(
+                "physical",
+                &format!(r#"<float name="f_stop" value="0.5"/>{focus}"#),
+            ),
+        );
+        let loaded = load_scene_str(&xml, Path::new("focus.xml"), &[]).unwrap();
+        render(
+            &loaded.scene,
+            loaded.integrator.as_ref(),
+            &RenderSettings { spp: 4, seed: 1 },
+            &|_| {},
+        )
+        .image
+        .data
+    };
+    let distance = (1.2f32 * 1.2 + 4.0 * 4.0).sqrt();
+    let explicit = format!(r#"<float name="focus_distance" value="{distance}"/>"#);
+    let (a, b) = (render_with(""), render_with(&explicit));
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-3, "largest difference {worst}");
+    let blurred = render_with(r#"<float name="focus_distance" value="1"/>"#);
+    assert_ne!(a, blurred);
+}
+
+#[test]
+fn bad_camera_settings_are_load_errors_with_the_line() {
+    for (kind, params, says) in [
+        ("physical", r#"<float name="f_stop" value="0"/>"#, "f_stop"),
+        ("physical", r#"<float name="f_stop" value="-2"/>"#, "f_stop"),
+        (
+            "physical",
+            r#"<integer name="blades" value="1"/>"#,
+            "blades",
+        ),
+        (
+            "physical",
+            r#"<integer name="blades" value="2"/>"#,
+            "blades",
+        ),
+        (
+            "physical",
+            r#"<float name="focus_distance" value="0"/>"#,
+            "focus_distance",
+        ),
+        (
+            "physical",
+            r#"<float name="aperture_bias" value="-1"/>"#,
+            "aperture_bias",
+        ),
+        (
+            "thinlens",
+            r#"<float name="fov" value="40"/><float name="aperture_radius" value="0.1"/><float name="focus_distance" value="-1"/>"#,
+            "focus_distance",
+        ),
+        (
+            "thinlens",
+            r#"<float name="fov" value="40"/>"#,
+            "aperture_radius",
+        ),
+        (
+            "perspective",
+            r#"<string name="fov_axis" value="z"/>"#,
+            "fov_axis",
+        ),
+        (
+            "perspective",
+            r#"<float name="focus_distance" value="0"/>"#,
+            "focus_distance",
+        ),
+    ] {
+        let xml = scene("path", &sensor(kind, params));
+        let Err(e) = load_scene_str(&xml, Path::new("bad.xml"), &[]) else {
+            panic!("{kind} with {params} loaded");
+        };
+        let e = e.to_string();
+        assert!(
+            e.contains("bad.xml:") && e.contains(says),
+            "{kind} {params}: {e}"
+        );
+    }
+}
+
+#[test]
+fn ptracer_refuses_an_orthographic_sensor() {
+    let xml = scene("ptracer", &sensor("orthographic", ""));
+    let Err(e) = load_scene_str(&xml, Path::new("ortho.xml"), &[]) else {
+        panic!("ptracer with an orthographic sensor loaded");
+    };
+    let e = e.to_string();
+    assert!(
+        e.contains("ortho.xml:3") && e.contains("orthographic"),
+        "{e}"
+    );
+}
