@@ -178,6 +178,18 @@ pub enum ShapeEmitter {
     DirectionalArea(Tex),
 }
 
+impl ShapeEmitter {
+    /// The emitter it makes of shape `shape`.
+    fn on_shape(self, shape: u32) -> Emitter {
+        match self {
+            ShapeEmitter::Area(radiance) => Emitter::Area(AreaLight { shape, radiance }),
+            ShapeEmitter::DirectionalArea(radiance) => {
+                Emitter::DirectionalArea(crate::light::DirectionalAreaLight { shape, radiance })
+            }
+        }
+    }
+}
+
 /// A scene ready to render.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -827,18 +839,7 @@ impl SceneBuilder {
             if let Shape::Mesh(m) = shape {
                 self.meshes[m.mesh as usize].prepare_area_sampling();
             }
-            self.add_emitter(match e {
-                ShapeEmitter::Area(radiance) => Emitter::Area(AreaLight {
-                    shape: id,
-                    radiance,
-                }),
-                ShapeEmitter::DirectionalArea(radiance) => {
-                    Emitter::DirectionalArea(crate::light::DirectionalAreaLight {
-                        shape: id,
-                        radiance,
-                    })
-                }
-            })
+            self.add_emitter(e.on_shape(id))
         });
         let prims = shape.prim_count(&self.meshes);
         self.shapes.push(shape);
@@ -934,18 +935,7 @@ impl SceneBuilder {
                     .placed(&inst.to_world, &mut self.meshes)
                     .ok_or(BuildError::StretchedEmittingSphere { shape: g.shape })?;
                 let id = self.shapes.len() as u32;
-                let emitter = self.add_emitter(match g.emitter {
-                    ShapeEmitter::Area(radiance) => Emitter::Area(AreaLight {
-                        shape: id,
-                        radiance,
-                    }),
-                    ShapeEmitter::DirectionalArea(radiance) => {
-                        Emitter::DirectionalArea(crate::light::DirectionalAreaLight {
-                            shape: id,
-                            radiance,
-                        })
-                    }
-                });
+                let emitter = self.add_emitter(g.emitter.on_shape(id));
                 self.set_emitter_options(emitter, g.options);
                 self.shapes.push(copy);
                 self.shape_info.push(ShapeInfo {
