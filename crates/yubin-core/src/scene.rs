@@ -865,12 +865,8 @@ impl SceneBuilder {
         }
         // Refused here, where a front end still knows the instance's line.
         for g in self.group_emitters.iter().filter(|g| g.group == group) {
-            let mut scratch = Vec::new();
-            if let Shape::Sphere(_) = self.shapes[g.shape as usize] {
-                if self.shapes[g.shape as usize]
-                    .placed(&to_world, &mut scratch)
-                    .is_none()
-                {
+            if let Shape::Sphere(sphere) = self.shapes[g.shape as usize] {
+                if sphere.placed(&to_world).is_none() {
                     return Err(BuildError::StretchedEmittingSphere { shape: g.shape });
                 }
             }
@@ -924,13 +920,12 @@ impl SceneBuilder {
     /// instances' `placed_emitters` index.
     fn place_group_emitters(&mut self) -> Result<Vec<(u32, u32)>, BuildError> {
         let mut placed = Vec::new();
+        // Built once: the scene keeps no list of group emitters.
+        let group_emitters = std::mem::take(&mut self.group_emitters);
         for i in 0..self.instances.len() {
             let inst = self.instances[i];
             let start = placed.len() as u32;
-            for g in self.group_emitters.clone() {
-                if g.group != inst.group {
-                    continue;
-                }
+            for g in group_emitters.iter().filter(|g| g.group == inst.group) {
                 let copy = self.shapes[g.shape as usize]
                     .placed(&inst.to_world, &mut self.meshes)
                     .ok_or(BuildError::StretchedEmittingSphere { shape: g.shape })?;

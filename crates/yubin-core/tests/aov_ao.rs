@@ -19,6 +19,24 @@ const RES: u32 = 16;
 const HEIGHT: f32 = 3.0;
 const NEAR: f32 = 0.01;
 
+/// A `res`×`res` camera at height `HEIGHT` looking straight down (40°
+/// field of view, box filter) with `spp` independent samples.
+fn look_down(b: &mut SceneBuilder, res: u32, spp: u32) {
+    let to_world = Affine3A::from_translation(Vec3::new(0.0, 0.0, HEIGHT))
+        * Affine3A::from_rotation_x(std::f32::consts::PI);
+    b.camera(Camera::Perspective(Perspective::new(
+        to_world,
+        40.0,
+        FovAxis::X,
+        res,
+        res,
+        NEAR,
+        100.0,
+    )));
+    b.film(Film::new(res, res, Filter::Box));
+    b.sampler(Sampler::Independent(Independent { sample_count: spp }));
+}
+
 /// A diffuse plane z = 0 (or nothing) and optionally a sphere, seen by a
 /// camera at height `HEIGHT` looking straight down.
 fn scene(plane: bool, sphere: Option<(Vec3, f32)>) -> Scene {
@@ -40,19 +58,7 @@ fn scene(plane: bool, sphere: Option<(Vec3, f32)>) -> Scene {
         b.add_shape(Shape::Sphere(Sphere::new(c, r, false)), Some(grey), None)
             .unwrap();
     }
-    let to_world = Affine3A::from_translation(Vec3::new(0.0, 0.0, HEIGHT))
-        * Affine3A::from_rotation_x(std::f32::consts::PI);
-    b.camera(Camera::Perspective(Perspective::new(
-        to_world,
-        40.0,
-        FovAxis::X,
-        RES,
-        RES,
-        NEAR,
-        100.0,
-    )));
-    b.film(Film::new(RES, RES, Filter::Box));
-    b.sampler(Sampler::Independent(Independent { sample_count: 4 }));
+    look_down(&mut b, RES, 4);
     b.build().unwrap()
 }
 
@@ -155,19 +161,7 @@ fn aov_albedo_is_the_diffuse_parameter_as_in_mitsuba() {
             None,
         )
         .unwrap();
-        let to_world = Affine3A::from_translation(Vec3::new(0.0, 0.0, HEIGHT))
-            * Affine3A::from_rotation_x(std::f32::consts::PI);
-        b.camera(Camera::Perspective(Perspective::new(
-            to_world,
-            40.0,
-            FovAxis::X,
-            4,
-            4,
-            NEAR,
-            100.0,
-        )));
-        b.film(Film::new(4, 4, Filter::Box));
-        b.sampler(Sampler::Independent(Independent { sample_count: 1 }));
+        look_down(&mut b, 4, 1);
         let scene = b.build().unwrap();
         let out = run(&scene, &aov("a:albedo", Vec::new()), 2);
         let a = offset_of(&out, "a");

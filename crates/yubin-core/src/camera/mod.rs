@@ -39,24 +39,6 @@ pub const PLUGINS: &[(&str, CameraFromParams)] = &[
     }),
 ];
 
-/// A non-negative lens size `name` (`default` when absent; required when
-/// `None`).
-fn aperture_parameter(
-    p: &mut dyn Params,
-    name: &str,
-    default: Option<f32>,
-) -> Result<f32, ParamError> {
-    let value = match (p.float(name)?, default) {
-        (Some(v), _) => v,
-        (None, Some(d)) => d,
-        (None, None) => return Err(p.error(&format!("needs \"{name}\""))),
-    };
-    if !(value >= 0.0 && value.is_finite()) {
-        return Err(p.param_error(name, &format!("must be >= 0, not {value}")));
-    }
-    Ok(value)
-}
-
 /// `focus_distance`, or else the distance along the view axis of
 /// `to_world`'s `lookat` target from the camera placed at `rigid`.
 fn focus_or_target(p: &mut dyn Params, rigid: glam::Affine3A) -> Result<f32, ParamError> {

@@ -26,13 +26,18 @@
 //! `lookat` target instead and asks for the distance when there is none.
 //! `ptracer` connects to the lens as the camera samples it.
 
-use super::{aperture_parameter, focus_or_target, rigid_to_world, Aperture, Perspective};
+use super::{focus_or_target, rigid_to_world, Aperture, Perspective};
 use crate::params::{ParamError, Params};
 
 /// Builds the camera (a [`Perspective`] with a round lens).
 pub fn from_params(p: &mut dyn Params, size: [u32; 2]) -> Result<Perspective, ParamError> {
     let pinhole = Perspective::from_params(p, size)?;
-    let radius = aperture_parameter(p, "aperture_radius", None)?;
+    let radius = p
+        .float("aperture_radius")?
+        .ok_or_else(|| p.error("needs \"aperture_radius\""))?;
+    if !(radius >= 0.0 && radius.is_finite()) {
+        return Err(p.param_error("aperture_radius", &format!("must be >= 0, not {radius}")));
+    }
     let rigid = rigid_to_world(p)?;
     let focus = focus_or_target(p, rigid)?;
     Ok(pinhole.with_lens(Aperture::disk(radius, focus)))

@@ -563,29 +563,29 @@ fn push_bounds(
         ),
         Emitter::Spot(s) => push(
             whole,
-            LightBounds {
-                bounds: Bounds3::from_point(s.to_world.point(Vec3::ZERO)),
-                phi: e.power(ctx, radius),
-                w: s.to_world.vector(Vec3::Z).normalize(),
-                cos_theta_o: 1.0,
-                cos_theta_e: s.cutoff.cos(),
-                two_sided: false,
-            },
+            beam_bounds(&s.to_world, s.cutoff.cos(), e.power(ctx, radius)),
         ),
         Emitter::Projector(l) => push(
             whole,
-            LightBounds {
-                bounds: Bounds3::from_point(l.to_world.point(Vec3::ZERO)),
-                phi: e.power(ctx, radius),
-                w: l.to_world.vector(Vec3::Z).normalize(),
-                cos_theta_o: 1.0,
-                cos_theta_e: l.cos_half_diagonal(),
-                two_sided: false,
-            },
+            beam_bounds(&l.to_world, l.cos_half_diagonal(), e.power(ctx, radius)),
         ),
         _ => {}
     }
     false
+}
+
+/// Bounds of a light at the origin of `to_world` that shines into the cone
+/// of half-angle cosine `cos_theta_e` about its +z axis (`spot`,
+/// `projector`), with power `phi`.
+fn beam_bounds(to_world: &crate::math::Transform, cos_theta_e: f32, phi: f32) -> LightBounds {
+    LightBounds {
+        bounds: Bounds3::from_point(to_world.point(Vec3::ZERO)),
+        phi,
+        w: to_world.vector(Vec3::Z).normalize(),
+        cos_theta_o: 1.0,
+        cos_theta_e,
+        two_sided: false,
+    }
 }
 
 /// The emitting side's normal of a planar shape (object +z).

@@ -49,16 +49,14 @@
 //! builds its sampling distribution into `Scene::light_distributions` and
 //! sets [`EnvMapLight::distribution`].
 
-use super::{EmitterContext, EmitterModel, EmitterSample};
+use super::{latlong, EmitterContext, EmitterModel, EmitterSample};
 use crate::params::{ParamError, Params};
 use crate::sampling::{Distribution1D, Distribution2D};
 use crate::spectrum::luminance;
 use crate::texture::TexImage;
 use crate::Rgb;
 use glam::{DMat3, DMat4, Mat3, Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, PI};
-
-const INV_2PI: f32 = 0.5 * FRAC_1_PI;
+use std::f32::consts::PI;
 
 /// An environment map.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -139,23 +137,6 @@ impl EnvMapLight {
         Ok(fixed)
     }
 
-    /// The image's (u, v) of a unit direction in the map's frame.
-    #[inline]
-    fn uv_of(d: Vec3) -> Vec2 {
-        Vec2::new(
-            d.x.atan2(-d.z) * INV_2PI,
-            d.y.clamp(-1.0, 1.0).acos() * FRAC_1_PI,
-        )
-    }
-
-    /// The unit direction in the map's frame at (u, v).
-    #[inline]
-    fn direction_of(uv: Vec2) -> Vec3 {
-        let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
-        let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
-        Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi)
-    }
-
     /// Bilinear lookup at (u, v), unscaled (see the module docs for where
     /// the samples sit).
     #[inline]
@@ -181,7 +162,7 @@ impl EnvMapLight {
     pub fn radiance(&self, ctx: &EmitterContext, d: Vec3) -> Rgb {
         let local = (self.light_from_world * d).normalize_or_zero();
         let img = &ctx.images[self.image as usize];
-        Self::lookup(img, Self::uv_of(local)) * self.scale
+        Self::lookup(img, latlong::uv_of(local)) * self.scale
     }
 
     /// The sampling distribution over the patches between the samples of
@@ -255,15 +236,11 @@ impl EnvMapLight {
         let img = &ctx.images[self.image as usize];
         let dist = &ctx.distributions[self.distribution as usize];
         let local = (self.light_from_world * wi).normalize_or_zero();
-        let uv = Self::uv_of(local);
+        let uv = latlong::uv_of(local);
         let radiance = Self::lookup(img, uv) * self.scale;
-        let sin_theta = (local.x * local.x + local.z * local.z).sqrt();
-        if sin_theta <= 0.0 {
-            return (radiance, 0.0);
-        }
         let x = uv.x - Self::shift(img);
         let x = x - x.floor();
-        let pdf = dist.pdf(Vec2::new(x, uv.y)) / (2.0 * PI * PI * sin_theta);
+        let pdf = latlong::solid_angle_pdf(dist.pdf(Vec2::new(x, uv.y)), local);
         (radiance, pdf)
     }
 
@@ -287,7 +264,7 @@ impl EmitterModel for EnvMapLight {
         if pdf_uv == 0.0 || uv.y <= 0.0 {
             return None;
         }
-        let wi = (self.world_from_light * Self::direction_of(uv)).normalize();
+        let wi = (self.world_from_light * latlong::direction_of(uv)).normalize();
         // Radiance and density are those of the direction as a traced ray
         // would find them, not of `uv`: round-off in the round trip can
         // cross into a neighbouring texel, and MIS needs the sample's

@@ -22,6 +22,7 @@ mod directional;
 mod directional_area;
 mod emission;
 mod envmap;
+mod latlong;
 mod point;
 mod preetham;
 mod projector;

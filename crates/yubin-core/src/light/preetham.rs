@@ -104,16 +104,15 @@
 //! refraction; NOAA's calculator adds ~0.02° at 35° elevation, ~0.1° at
 //! 10°).
 
-use super::{EmitterContext, EmitterModel, EmitterSample};
+use super::{latlong, EmitterContext, EmitterModel, EmitterSample};
 use crate::math::Frame;
 use crate::params::{ParamError, Params};
 use crate::sampling::{square_to_uniform_cone, uniform_cone_pdf, Distribution2D};
 use crate::spectrum::{cie1931_xyz, luminance, xyz_to_srgb};
 use crate::Rgb;
 use glam::{DMat3, DMat4, Mat3, Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::PI;
 
-const INV_2PI: f32 = 0.5 * FRAC_1_PI;
 /// The real sun's angular radius, degrees.
 const SUN_RADIUS_DEG: f64 = 0.2655;
 /// Luminous efficacy K_m (lm/W) that turns cd/m² into W/(m²·sr).
@@ -531,23 +530,6 @@ impl PreethamLight {
         self.radiance_local((self.light_from_world * d).normalize_or_zero())
     }
 
-    /// The table's (u, v) of a unit direction in the sky's frame.
-    #[inline]
-    fn uv_of(d: Vec3) -> Vec2 {
-        Vec2::new(
-            d.x.atan2(-d.z) * INV_2PI,
-            d.y.clamp(-1.0, 1.0).acos() * FRAC_1_PI,
-        )
-    }
-
-    /// The unit direction in the sky's frame at (u, v).
-    #[inline]
-    fn direction_of(uv: Vec2) -> Vec3 {
-        let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
-        let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
-        Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi)
-    }
-
     /// Tabulates the sky for sampling (see the module docs) and sets
     /// [`PreethamLight::sun_prob`] from the sun's and the sky's powers.
     pub fn sampling_distribution(&mut self) -> Distribution2D {
@@ -558,7 +540,7 @@ impl PreethamLight {
             let sin_theta = (PI * v).sin();
             for c in 0..TABLE_W {
                 let u = (c as f32 + 0.5) / TABLE_W as f32;
-                let l = luminance(self.sky_radiance_local(Self::direction_of(Vec2::new(u, v))));
+                let l = luminance(self.sky_radiance_local(latlong::direction_of(Vec2::new(u, v))));
                 weights[r * TABLE_W + c] = l * sin_theta;
                 sky_power += (l * sin_theta) as f64;
             }
@@ -590,11 +572,10 @@ impl PreethamLight {
             pdf += self.sun_prob * uniform_cone_pdf(self.cos_sun_radius);
         }
         let sky_prob = 1.0 - self.sun_prob;
-        let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
-        if sky_prob > 0.0 && d.y > 0.0 && sin_theta > 0.0 {
-            let uv = Self::uv_of(d);
+        if sky_prob > 0.0 && d.y > 0.0 {
+            let uv = latlong::uv_of(d);
             let x = uv.x - uv.x.floor();
-            pdf += sky_prob * dist.pdf(Vec2::new(x, uv.y)) / (2.0 * PI * PI * sin_theta);
+            pdf += sky_prob * latlong::solid_angle_pdf(dist.pdf(Vec2::new(x, uv.y)), d);
         }
         pdf
     }
@@ -623,7 +604,7 @@ impl EmitterModel for PreethamLight {
             if pdf_uv == 0.0 || uv.y <= 0.0 {
                 return None;
             }
-            Self::direction_of(uv)
+            latlong::direction_of(uv)
         };
         let wi = (self.world_from_light * local).normalize();
         // As in `envmap`: radiance and density of the direction as a traced

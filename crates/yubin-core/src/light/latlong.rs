@@ -1,0 +1,37 @@
+//! Mitsuba's latitude–longitude parameterization of directions, shared by
+//! `envmap` (its image) and `preetham` (its sampling table): +y is up
+//! (v = 0 at the zenith, v = θ/π), and u = atan2(x, −z) / 2π.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+const INV_2PI: f32 = 0.5 * FRAC_1_PI;
+
+/// The (u, v) of unit direction `d`.
+#[inline]
+pub(crate) fn uv_of(d: Vec3) -> Vec2 {
+    Vec2::new(
+        d.x.atan2(-d.z) * INV_2PI,
+        d.y.clamp(-1.0, 1.0).acos() * FRAC_1_PI,
+    )
+}
+
+/// The unit direction at (u, v).
+#[inline]
+pub(crate) fn direction_of(uv: Vec2) -> Vec3 {
+    let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
+    let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
+    Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi)
+}
+
+/// The solid-angle density of unit direction `d` for the density
+/// `pdf_uv` over the (u, v) square (dω = 2π² sin θ du dv); 0 at the poles.
+#[inline]
+pub(crate) fn solid_angle_pdf(pdf_uv: f32, d: Vec3) -> f32 {
+    let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
+    if sin_theta > 0.0 {
+        pdf_uv / (2.0 * PI * PI * sin_theta)
+    } else {
+        0.0
+    }
+}
