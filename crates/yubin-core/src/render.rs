@@ -4,6 +4,7 @@
 //! dimension, seed), so the image is bit-identical for any thread count.
 
 use crate::film::{Framebuffer, Tile, TileBuffer};
+use crate::filter::FilterTable;
 use crate::integrator::{Integrator, Layer};
 use crate::Scene;
 use glam::Vec2;
@@ -37,10 +38,11 @@ pub fn render(
     let crop = film.crop_size;
     let channels = integrator.channel_count();
     let tiles = tiles(crop);
+    let filter = FilterTable::new(&film.filter);
     let results: Vec<(TileBuffer, u64)> = tiles
         .par_iter()
         .map(|&tile| {
-            let r = render_tile(scene, integrator, settings, tile, channels);
+            let r = render_tile(scene, integrator, settings, &filter, tile, channels);
             progress(
                 u64::from(tile.x1 - tile.x0)
                     * u64::from(tile.y1 - tile.y0)
@@ -106,11 +108,12 @@ fn render_tile(
     scene: &Scene,
     integrator: &dyn Integrator,
     settings: &RenderSettings,
+    filter: &FilterTable,
     tile: Tile,
     channels: usize,
 ) -> (TileBuffer, u64) {
     let film = &scene.film;
-    let mut buf = TileBuffer::new(tile, &film.filter, channels);
+    let mut buf = TileBuffer::new(tile, filter, channels);
     // One buffer per tile (not per sample), sized to the integrator.
     let mut values = vec![0.0f32; channels];
     let values = values.as_mut_slice();
@@ -134,7 +137,7 @@ fn render_tile(
                     integrator.sample(scene, &ray, &mut stream, values);
                 }
                 if values.iter().all(|v| v.is_finite()) {
-                    buf.splat(&film.filter, Vec2::new(x as f32, y as f32) + offset, values);
+                    buf.splat(filter, Vec2::new(x as f32, y as f32) + offset, values);
                 } else {
                     dropped += 1;
                 }

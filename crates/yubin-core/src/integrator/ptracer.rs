@@ -128,7 +128,7 @@ impl ParticleTracer {
                     .collect();
                 for (splats, bad) in results {
                     for s in splats {
-                        image.splat(&film.filter, s.pos, s.rgb);
+                        image.splat(s.pos, s.rgb);
                     }
                     dropped += bad;
                 }
