@@ -10,6 +10,7 @@
 //! - [`cornell`]: whole renders against Mitsuba 3 (wall time and error).
 //! - [`manylights`]: uniform, power and light-BVH light selection on
 //!   10,000 emissive triangles (equal-time error).
+//! - [`samplers`]: each sampler's cost per sample, and a render with each.
 //! - [`envmap`]: time to build a 4096 × 2048 environment map's sampling
 //!   distribution.
 //! - [`rays`]: ray-traversal throughput, build time and memory of yubin's
@@ -21,6 +22,7 @@ mod cornell;
 mod envmap;
 mod manylights;
 mod rays;
+mod samplers;
 
 use anyhow::{bail, Result};
 
@@ -33,6 +35,7 @@ const USAGE: &str = "usage:
   yubin-bench cornell [--spp N] [--scene PATH] [--skip-mitsuba]
   yubin-bench manylights [--spp N] [--ref-spp N] [--res N]
   yubin-bench envmap [--reps N]
+  yubin-bench samplers [--reps N]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
                    [--min-passes N] [--max-passes N] [--out FILE.md]
@@ -50,6 +53,7 @@ fn main() -> Result<()> {
         Some("rays") => rays::run(&args[1..]),
         Some("manylights") => manylights::run(&args[1..]),
         Some("envmap") => envmap::run(&args[1..]),
+        Some("samplers") => samplers::run(&args[1..]),
         Some("help") => {
             println!("{USAGE}");
             Ok(())

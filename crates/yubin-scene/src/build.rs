@@ -11,9 +11,7 @@
 //! sampler's `light_samples` (Mitsuba 0.6), and the film's `file_format`,
 //! `banner`, `high_quality_edges` and `attach_log` (output options that
 //! `yubin render -o` decides instead). The XML front end already converts
-//! 0.6-style camelCase names. Sampler types Mitsuba 3 has but yubin renders
-//! differently (`stratified`, `multijitter`, `orthogonal`, `ldsampler`)
-//! render with the Owen-scrambled Sobol sampler, with a warning.
+//! 0.6-style camelCase names.
 
 use crate::desc::{Category, Object, SceneDesc};
 use crate::error::{Location, SceneError};

@@ -1,9 +1,9 @@
 //! The same seed gives a bit-identical image on 1, 2 and 4 threads, and a
-//! different seed gives a different one.
+//! different seed gives a different one, with every sampler.
 
 use std::path::Path;
 use yubin_core::render::{render, RenderSettings};
-use yubin_scene::load_scene;
+use yubin_scene::{load_scene, load_scene_str};
 
 fn render_with_threads(threads: usize, seed: u32, sampler: &str) -> Vec<f32> {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.xml");
@@ -12,10 +12,14 @@ fn render_with_threads(threads: usize, seed: u32, sampler: &str) -> Vec<f32> {
         ("resy".to_string(), "24".to_string()),
     ];
     let mut loaded = load_scene(&scene, &defines).unwrap();
-    if sampler == "sobol" {
-        loaded.scene.sampler =
-            yubin_core::sampler::Sampler::Sobol(yubin_core::sampler::Sobol { sample_count: 4 });
-    }
+    let sampler_xml = format!(
+        r#"<scene version="3.0.0"><sensor type="perspective"><sampler type="{sampler}">
+             <integer name="sample_count" value="4"/></sampler></sensor></scene>"#
+    );
+    loaded.scene.sampler = load_scene_str(&sampler_xml, Path::new("sampler.xml"), &[])
+        .unwrap()
+        .scene
+        .sampler;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -33,7 +37,14 @@ fn render_with_threads(threads: usize, seed: u32, sampler: &str) -> Vec<f32> {
 
 #[test]
 fn same_seed_same_image_on_any_thread_count() {
-    for sampler in ["independent", "sobol"] {
+    for sampler in [
+        "independent",
+        "sobol",
+        "stratified",
+        "multijitter",
+        "orthogonal",
+        "ldsampler",
+    ] {
         let one = render_with_threads(1, 3, sampler);
         for threads in [2, 4] {
             let many = render_with_threads(threads, 3, sampler);

@@ -2,15 +2,29 @@
 //! (pixel, sample index, dimension, seed), so an image does not depend on
 //! how work is split over threads.
 //!
-//! A [`Sampler`] is the per-render configuration (`independent` or
-//! `sobol`); [`Sampler::stream`] gives the [`SampleStream`] of one pixel
-//! sample, which hands out dimensions in order.
+//! A [`Sampler`] is the per-render configuration; [`Sampler::stream`]
+//! gives the [`SampleStream`] of one pixel sample, which hands out
+//! dimensions in order (`next_1d`, or `next_2d` for a pair that the
+//! stratifying samplers stratify jointly).
+//!
+//! The pattern samplers (`stratified`, `multijitter`, `orthogonal`,
+//! `ldsampler`) stratify a pattern of a fixed size per pixel; a render
+//! with more samples than the pattern draws it again, pass after pass,
+//! under new keys (sample index i is sample i mod N of pass i div N).
 
 mod independent;
+mod ldsampler;
+mod multijitter;
+mod orthogonal;
 mod sobol;
+mod stratified;
 
 pub use independent::Independent;
+pub use ldsampler::LdSampler;
+pub use multijitter::MultiJitter;
+pub use orthogonal::Orthogonal;
 pub use sobol::Sobol;
+pub use stratified::Stratified;
 
 use crate::params::{plugin_of, ParamError, Params};
 use glam::Vec2;
@@ -18,8 +32,7 @@ use glam::Vec2;
 /// Builds a sampler plugin from its parameters and its sample count.
 pub type SamplerFromParams = fn(&mut dyn Params, u32) -> Result<Sampler, ParamError>;
 
-/// Every sampler plugin: its scene type string and constructor. Mitsuba's
-/// stratified samplers render with the Sobol sampler, with a warning.
+/// Every sampler plugin: its scene type string and constructor.
 pub const PLUGINS: &[(&str, SamplerFromParams)] = &[
     ("independent", |_, sample_count| {
         Ok(Sampler::Independent(Independent { sample_count }))
@@ -27,22 +40,86 @@ pub const PLUGINS: &[(&str, SamplerFromParams)] = &[
     ("sobol", |_, sample_count| {
         Ok(Sampler::Sobol(Sobol { sample_count }))
     }),
-    ("stratified", sobol_stand_in),
-    ("multijitter", sobol_stand_in),
-    ("orthogonal", sobol_stand_in),
-    ("ldsampler", sobol_stand_in),
+    ("stratified", stratified::from_params),
+    ("multijitter", multijitter::from_params),
+    ("orthogonal", orthogonal::from_params),
+    ("ldsampler", ldsampler::from_params),
 ];
 
-/// The Sobol sampler for one of Mitsuba's stratified samplers.
-fn sobol_stand_in(p: &mut dyn Params, sample_count: u32) -> Result<Sampler, ParamError> {
-    p.mark_ignored("jitter");
-    p.mark_ignored("strength");
-    let msg = format!(
-        "sampler \"{}\" renders with yubin's Owen-scrambled Sobol sampler",
-        p.plugin_type()
-    );
-    p.warn(None, &msg);
-    Ok(Sampler::Sobol(Sobol { sample_count }))
+/// The side of the smallest square pattern with at least `sample_count`
+/// samples, with a warning when it has more.
+fn rounded_square_side(p: &mut dyn Params, sample_count: u32) -> u32 {
+    let side = (sample_count as f64).sqrt().ceil() as u32;
+    if side * side != sample_count {
+        let msg = format!(
+            "{} takes a square number of samples: {} per pixel, not {sample_count}",
+            p.plugin_type(),
+            side * side
+        );
+        p.warn(Some("sample_count"), &msg);
+    }
+    side
+}
+
+/// Kensler's permutation (2013, "Correlated Multi-Jittered Sampling",
+/// §3): the image of `i` under a pseudo-random bijection of [0, l) that
+/// `p` selects, computed without tables by cycle-walking an invertible
+/// hash on the next power of two.
+#[inline]
+pub(crate) fn permute(mut i: u32, l: u32, p: u32) -> u32 {
+    if l <= 1 {
+        return 0;
+    }
+    let mut w = l - 1;
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    loop {
+        i ^= p;
+        i = i.wrapping_mul(0xe170_893d);
+        i ^= p >> 16;
+        i ^= (i & w) >> 4;
+        i ^= p >> 8;
+        i = i.wrapping_mul(0x0929_eb3f);
+        i ^= p >> 23;
+        i ^= (i & w) >> 1;
+        i = i.wrapping_mul(1 | p >> 27);
+        i = i.wrapping_mul(0x6935_fa69);
+        i ^= (i & w) >> 11;
+        i = i.wrapping_mul(0x74dc_b303);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0x9e50_1cc3);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0xc860_a3df);
+        i &= w;
+        i ^= i >> 5;
+        if i < l {
+            break;
+        }
+    }
+    (i.wrapping_add(p)) % l
+}
+
+/// The key of dimension `d` under the (well-mixed) pixel key: one hash.
+#[inline]
+fn dimension_key(pixel_key: u32, d: u32) -> u32 {
+    hash_u32(pixel_key.wrapping_add(d.wrapping_mul(0x9e37_79b9)))
+}
+
+/// A jitter in [0, 1) for sample `i` under `key` (`which` tells the
+/// coordinates of one sample apart), or the stratum's centre without
+/// jitter.
+#[inline]
+fn jitter_of(jitter: bool, key: u32, i: u32, which: u32) -> f32 {
+    if jitter {
+        bits_to_unit_f32(hash_u32(
+            key ^ i.wrapping_mul(0x85eb_ca6b) ^ which.wrapping_mul(0xc2b2_ae35),
+        ))
+    } else {
+        0.5
+    }
 }
 
 /// The sampler of a render (a closed enum, dispatched by hand).
@@ -52,6 +129,14 @@ pub enum Sampler {
     Independent(Independent),
     /// Owen-scrambled Sobol (Burley 2020).
     Sobol(Sobol),
+    /// Jittered strata (`stratified`).
+    Stratified(Stratified),
+    /// Correlated multi-jittered (`multijitter`).
+    MultiJitter(MultiJitter),
+    /// Orthogonal arrays (`orthogonal`).
+    Orthogonal(Orthogonal),
+    /// (0, 2)-sequences (`ldsampler`).
+    LdSampler(LdSampler),
 }
 
 impl Default for Sampler {
@@ -70,79 +155,116 @@ impl Sampler {
             &["light_samples"],
             "a Mitsuba 0.6 parameter; Mitsuba 3 has none",
         );
-        let known =
-            "independent, sobol (stratified, multijitter, orthogonal and ldsampler map to sobol)";
-        let build = plugin_of(p, "sampler", PLUGINS, Some(known))?;
+        let build = plugin_of(p, "sampler", PLUGINS, None)?;
         Ok((build(p, sample_count)?, seed))
     }
 
-    /// Samples per pixel.
+    /// Samples per pixel (of the pattern, for the pattern samplers).
     pub fn sample_count(&self) -> u32 {
         match self {
             Sampler::Independent(s) => s.sample_count,
             Sampler::Sobol(s) => s.sample_count,
+            Sampler::Stratified(s) => s.side * s.side,
+            Sampler::MultiJitter(s) => s.m * s.n,
+            Sampler::Orthogonal(s) => s.count(),
+            Sampler::LdSampler(s) => s.sample_count,
         }
-    }
-
-    /// The same sampler with another sample count.
-    pub fn with_sample_count(mut self, spp: u32) -> Self {
-        match &mut self {
-            Sampler::Independent(s) => s.sample_count = spp,
-            Sampler::Sobol(s) => s.sample_count = spp,
-        }
-        self
     }
 
     /// The stream of sample `index` of pixel `(x, y)` under `seed`.
     #[inline]
     pub fn stream(&self, x: u32, y: u32, index: u32, seed: u32) -> SampleStream {
-        let pixel_key = hash3(x, y, seed);
+        let pattern = match self {
+            Sampler::Independent(_) | Sampler::Sobol(_) => 1,
+            _ => self.sample_count(),
+        };
+        let (pixel_key, index) = if pattern == 1 {
+            (hash3(x, y, seed), index)
+        } else {
+            // The pass (index div N) keys the pattern's permutations.
+            (
+                hash3(x, y, seed ^ hash_u32(index / pattern)),
+                index % pattern,
+            )
+        };
         SampleStream {
-            kind: match self {
-                Sampler::Independent(_) => StreamKind::Independent,
-                Sampler::Sobol(_) => StreamKind::Sobol,
-            },
+            sampler: *self,
             pixel_key,
             index,
             dim: 0,
+            block: 0,
+            block_index: 0,
         }
     }
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum StreamKind {
-    Independent,
-    Sobol,
 }
 
 /// The sample values of one pixel sample, dimension after dimension.
 #[derive(Clone, Copy, Debug)]
 pub struct SampleStream {
-    kind: StreamKind,
+    sampler: Sampler,
     pixel_key: u32,
+    /// The sample's index (in its pattern, for the pattern samplers).
     index: u32,
     dim: u32,
+    /// `orthogonal`: the block of dimensions (plus one; 0: none yet) whose
+    /// sample order `block_index` holds.
+    block: u32,
+    block_index: u32,
 }
 
+/// The largest float below 1: pattern values computed in floating point
+/// are kept in [0, 1).
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
 impl SampleStream {
+    /// The key of dimension `d` of this pixel and pass.
+    #[inline]
+    fn key(&self, d: u32) -> u32 {
+        dimension_key(self.pixel_key, d)
+    }
+
     /// The next value in [0, 1).
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         let d = self.dim;
         self.dim += 1;
-        match self.kind {
-            StreamKind::Sobol if d < sobol::DIMENSIONS => {
-                sobol::sample(self.index, d, self.pixel_key)
+        let i = self.index;
+        match self.sampler {
+            Sampler::Sobol(_) if d < sobol::DIMENSIONS => sobol::sample(i, d, self.pixel_key),
+            Sampler::Independent(_) | Sampler::Sobol(_) => {
+                independent::sample(self.pixel_key, i, d)
             }
-            _ => independent::sample(self.pixel_key, self.index, d),
+            Sampler::Stratified(s) => s.sample_1d(i, self.key(d)).min(ONE_MINUS_EPSILON),
+            Sampler::MultiJitter(s) => s.sample_1d(i, self.key(d)).min(ONE_MINUS_EPSILON),
+            Sampler::Orthogonal(s) => {
+                let block = d / s.base + 1;
+                if self.block != block {
+                    self.block = block;
+                    self.block_index = s.block_index(i, d, self.pixel_key);
+                }
+                s.sample(self.block_index, d, self.pixel_key)
+                    .min(ONE_MINUS_EPSILON)
+            }
+            Sampler::LdSampler(s) => s.sample_1d(i, self.key(d)),
         }
     }
 
-    /// The next two values.
+    /// The next two values (a pair the pattern samplers stratify jointly).
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
-        let x = self.next_1d();
-        Vec2::new(x, self.next_1d())
+        let (d, i) = (self.dim, self.index);
+        let v = match &self.sampler {
+            Sampler::Stratified(s) => s.sample_2d(i, self.key(d)),
+            Sampler::MultiJitter(s) => s.sample_2d(i, self.key(d)),
+            Sampler::LdSampler(s) => s.sample_2d(i, self.key(d)),
+            // Orthogonal arrays stratify every pair (and more) already.
+            Sampler::Independent(_) | Sampler::Sobol(_) | Sampler::Orthogonal(_) => {
+                let x = self.next_1d();
+                return Vec2::new(x, self.next_1d());
+            }
+        };
+        self.dim += 2;
+        v.min(Vec2::splat(ONE_MINUS_EPSILON))
     }
 }
 
@@ -218,39 +340,229 @@ impl Pcg32 {
 mod tests {
     use super::*;
 
+    /// One sampler of every kind.
+    fn every_sampler() -> Vec<Sampler> {
+        vec![
+            Sampler::Independent(Independent { sample_count: 4 }),
+            Sampler::Sobol(Sobol { sample_count: 4 }),
+            Sampler::Stratified(Stratified {
+                side: 4,
+                jitter: true,
+            }),
+            Sampler::MultiJitter(MultiJitter {
+                m: 3,
+                n: 4,
+                jitter: true,
+            }),
+            Sampler::Orthogonal(Orthogonal {
+                base: 5,
+                strength: 2,
+                jitter: true,
+            }),
+            Sampler::LdSampler(LdSampler { sample_count: 16 }),
+        ]
+    }
+
+    /// The first values of a stream, mixing 1D and 2D draws as renders do.
     fn first_values(s: &Sampler, x: u32, y: u32, i: u32, seed: u32) -> Vec<f32> {
         let mut st = s.stream(x, y, i, seed);
-        (0..401).map(|_| st.next_1d()).collect()
+        let mut out = Vec::new();
+        while out.len() < 401 {
+            let v = st.next_2d();
+            out.extend([v.x, v.y, st.next_1d()]);
+        }
+        out.truncate(401);
+        out
     }
 
     #[test]
     fn streams_are_pure_functions_of_their_key() {
-        for s in [
-            Sampler::Independent(Independent { sample_count: 4 }),
-            Sampler::Sobol(Sobol { sample_count: 4 }),
-        ] {
+        for s in every_sampler() {
             assert_eq!(first_values(&s, 3, 4, 5, 6), first_values(&s, 3, 4, 5, 6));
             assert_ne!(first_values(&s, 3, 4, 5, 6), first_values(&s, 4, 3, 5, 6));
             assert_ne!(first_values(&s, 3, 4, 5, 6), first_values(&s, 3, 4, 5, 7));
-            assert!(first_values(&s, 1, 2, 3, 4)
-                .iter()
-                .all(|v| (0.0..1.0).contains(v)));
+            assert_ne!(first_values(&s, 3, 4, 5, 6), first_values(&s, 3, 4, 6, 6));
+            for i in 0..64 {
+                assert!(
+                    first_values(&s, 1, 2, i, 4)
+                        .iter()
+                        .all(|v| (0.0..1.0).contains(v)),
+                    "{s:?}"
+                );
+            }
         }
     }
 
     #[test]
     fn means_are_one_half() {
-        for s in [
-            Sampler::Independent(Independent { sample_count: 4 }),
-            Sampler::Sobol(Sobol { sample_count: 4 }),
-        ] {
-            for dim in [0usize, 1, 7, 255, 256, 400] {
-                let n = 4096;
+        for s in every_sampler() {
+            for dim in [0usize, 1, 2, 7, 255, 256, 400] {
+                let n = 4800;
                 let mean: f64 = (0..n)
                     .map(|i| first_values(&s, 9, 2, i, 1)[dim] as f64)
                     .sum::<f64>()
                     / n as f64;
-                assert!((mean - 0.5).abs() < 0.02, "dim {dim}: {mean}");
+                assert!((mean - 0.5).abs() < 0.02, "{s:?} dim {dim}: {mean}");
+            }
+        }
+    }
+
+    #[test]
+    fn permute_is_a_bijection() {
+        for l in (1..70).chain([256, 625, 1000]) {
+            for p in [0, 1, 0xdead_beef, 12345] {
+                let mut seen = vec![false; l as usize];
+                for i in 0..l {
+                    let j = permute(i, l, p) as usize;
+                    assert!(!seen[j], "l {l} p {p}: {j} twice");
+                    seen[j] = true;
+                }
+            }
+        }
+    }
+
+    /// Draws of the pattern's N samples of one pixel and pass, after
+    /// `skip_2d` pairs: (1D value, 2D pair).
+    fn pattern(s: &Sampler, pass: u32, skip_2d: usize) -> Vec<(f32, Vec2)> {
+        let n = s.sample_count();
+        (0..n)
+            .map(|i| {
+                let mut st = s.stream(7, 3, pass * n + i, 11);
+                for _ in 0..skip_2d {
+                    st.next_2d();
+                }
+                let v1 = st.next_1d();
+                (v1, st.next_2d())
+            })
+            .collect()
+    }
+
+    /// Each of `cells` bins of `values` (cell indices) holds one value.
+    fn one_per_cell(cells: impl Iterator<Item = usize>, count: usize) -> bool {
+        let mut seen = vec![0; count];
+        for c in cells {
+            seen[c.min(count - 1)] += 1;
+        }
+        seen.iter().all(|&k| k == 1)
+    }
+
+    #[test]
+    fn stratified_has_one_sample_per_stratum() {
+        let s = Sampler::Stratified(Stratified {
+            side: 5,
+            jitter: true,
+        });
+        for (pass, skip) in [(0, 0), (0, 3), (2, 1)] {
+            let p = pattern(&s, pass, skip);
+            assert!(one_per_cell(p.iter().map(|(v, _)| (v * 25.0) as usize), 25));
+            assert!(one_per_cell(
+                p.iter()
+                    .map(|(_, v)| (v.y * 5.0) as usize * 5 + (v.x * 5.0) as usize),
+                25
+            ));
+        }
+    }
+
+    #[test]
+    fn multijitter_is_jittered_and_latin_at_once() {
+        for (m, n) in [(4, 4), (3, 4)] {
+            let s = Sampler::MultiJitter(MultiJitter { m, n, jitter: true });
+            let count = (m * n) as usize;
+            for (pass, skip) in [(0, 0), (1, 2)] {
+                let p = pattern(&s, pass, skip);
+                let cells =
+                    |v: &Vec2| (v.y * n as f32) as usize * m as usize + (v.x * m as f32) as usize;
+                assert!(one_per_cell(p.iter().map(|(_, v)| cells(v)), count));
+                assert!(one_per_cell(
+                    p.iter().map(|(_, v)| (v.x * count as f32) as usize),
+                    count
+                ));
+                assert!(one_per_cell(
+                    p.iter().map(|(_, v)| (v.y * count as f32) as usize),
+                    count
+                ));
+                assert!(one_per_cell(
+                    p.iter().map(|(v, _)| (v * count as f32) as usize),
+                    count
+                ));
+            }
+        }
+    }
+
+    /// Every t of the first s dimensions (and of the next block of s) see
+    /// each combination of strata exactly once, and each dimension alone
+    /// is stratified into N intervals.
+    #[test]
+    fn orthogonal_is_an_orthogonal_array() {
+        for (base, strength) in [(5, 2), (3, 3), (5, 3), (7, 2)] {
+            let o = Orthogonal {
+                base,
+                strength,
+                jitter: true,
+            };
+            let s = Sampler::Orthogonal(o);
+            let n = o.count();
+            for pass in [0, 1] {
+                let values: Vec<Vec<f32>> = (0..n)
+                    .map(|i| {
+                        let mut st = s.stream(2, 9, pass * n + i, 5);
+                        (0..2 * base).map(|_| st.next_1d()).collect()
+                    })
+                    .collect();
+                for block in [0, base] {
+                    let dims: Vec<u32> = (block..block + strength).collect();
+                    let stratum = |v: &Vec<f32>| {
+                        dims.iter().fold(0usize, |acc, &d| {
+                            acc * base as usize + (v[d as usize] * base as f32) as usize
+                        })
+                    };
+                    assert!(
+                        one_per_cell(values.iter().map(stratum), n as usize),
+                        "s {base} t {strength} dims {dims:?}"
+                    );
+                    // Another choice of t dimensions within the block.
+                    let last: Vec<u32> = (block + base - strength..block + base).collect();
+                    let stratum = |v: &Vec<f32>| {
+                        last.iter().fold(0usize, |acc, &d| {
+                            acc * base as usize + (v[d as usize] * base as f32) as usize
+                        })
+                    };
+                    assert!(one_per_cell(values.iter().map(stratum), n as usize));
+                }
+                for d in 0..2 * base as usize {
+                    let fine = values.iter().map(|v| (v[d] * n as f32) as usize);
+                    assert!(
+                        one_per_cell(fine, n as usize),
+                        "s {base} t {strength} dim {d}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The 2D draws are (0, 2)-nets in base 2: every elementary interval
+    /// of area 1/N holds one point; the 1D draws are stratified.
+    #[test]
+    fn ldsampler_pairs_are_0_2_nets() {
+        for count in [16u32, 32, 64] {
+            let s = Sampler::LdSampler(LdSampler {
+                sample_count: count,
+            });
+            let m = count.trailing_zeros();
+            for (pass, skip) in [(0, 0), (0, 5), (3, 1)] {
+                let p = pattern(&s, pass, skip);
+                for a in 0..=m {
+                    let (nx, ny) = (1usize << a, 1usize << (m - a));
+                    let cells = p
+                        .iter()
+                        .map(|(_, v)| (v.y * ny as f32) as usize * nx + (v.x * nx as f32) as usize);
+                    assert!(
+                        one_per_cell(cells, count as usize),
+                        "N {count}: {nx} × {ny}"
+                    );
+                }
+                let fine = p.iter().map(|(v, _)| (v * count as f32) as usize);
+                assert!(one_per_cell(fine, count as usize));
             }
         }
     }
