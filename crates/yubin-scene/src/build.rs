@@ -118,8 +118,15 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
                 child.used.set(true);
                 b.emitter(obj)?;
             }
-            // Declared to be referenced: built where a `<ref>` uses it.
-            Category::Texture | Category::Spectrum if obj.id.is_some() => {
+            // Declared to be referenced: built where a `<ref>` uses it
+            // (Mitsuba's docs scenes declare a sampler for the sensor so).
+            Category::Texture
+            | Category::Spectrum
+            | Category::Sampler
+            | Category::Film
+            | Category::Rfilter
+                if obj.id.is_some() =>
+            {
                 child.used.set(true);
             }
             _ => {}

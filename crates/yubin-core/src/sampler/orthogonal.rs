@@ -68,7 +68,10 @@ pub(super) fn from_params(p: &mut dyn Params, sample_count: u32) -> Result<Sampl
 }
 
 fn is_prime(n: u32) -> bool {
-    n >= 2 && (2..).take_while(|d| d * d <= n).all(|d| !n.is_multiple_of(d))
+    n >= 2
+        && (2..)
+            .take_while(|d| d * d <= n)
+            .all(|d| !n.is_multiple_of(d))
 }
 
 impl Orthogonal {
