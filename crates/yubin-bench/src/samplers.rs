@@ -15,15 +15,6 @@ use std::time::Instant;
 use yubin_core::render::{render, RenderSettings};
 use yubin_scene::{load_scene, load_scene_str};
 
-const KINDS: [&str; 6] = [
-    "independent",
-    "sobol",
-    "stratified",
-    "multijitter",
-    "orthogonal",
-    "ldsampler",
-];
-
 pub fn run(args: &[String]) -> Result<()> {
     let mut reps = 5usize;
     let mut it = args.iter();
@@ -40,7 +31,7 @@ pub fn run(args: &[String]) -> Result<()> {
         "| sampler | ns per sample (30 dimensions) | ns per dimension | Cornell box render (s) |"
     );
     println!("|---|---:|---:|---:|");
-    for kind in KINDS {
+    for (kind, _) in yubin_core::sampler::PLUGINS {
         let xml = format!(
             r#"<scene version="3.0.0"><sensor type="perspective"><sampler type="{kind}">
                  <integer name="sample_count" value="16"/></sampler></sensor></scene>"#

@@ -37,14 +37,7 @@ fn render_with_threads(threads: usize, seed: u32, sampler: &str) -> Vec<f32> {
 
 #[test]
 fn same_seed_same_image_on_any_thread_count() {
-    for sampler in [
-        "independent",
-        "sobol",
-        "stratified",
-        "multijitter",
-        "orthogonal",
-        "ldsampler",
-    ] {
+    for (sampler, _) in yubin_core::sampler::PLUGINS {
         let one = render_with_threads(1, 3, sampler);
         for threads in [2, 4] {
             let many = render_with_threads(threads, 3, sampler);

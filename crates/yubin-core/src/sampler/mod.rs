@@ -108,6 +108,13 @@ fn dimension_key(pixel_key: u32, d: u32) -> u32 {
     hash_u32(pixel_key.wrapping_add(d.wrapping_mul(0x9e37_79b9)))
 }
 
+/// Pattern sample `i` of a dimension cut into `count` strata, one sample
+/// each, assigned by the permutation `key` selects.
+#[inline]
+fn stratified_1d(i: u32, count: u32, jitter: bool, key: u32) -> f32 {
+    (permute(i, count, key) as f32 + jitter_of(jitter, key, i, 0)) / count as f32
+}
+
 /// A jitter in [0, 1) for sample `i` under `key` (`which` tells the
 /// coordinates of one sample apart), or the stratum's centre without
 /// jitter.

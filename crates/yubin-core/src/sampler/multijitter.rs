@@ -20,7 +20,7 @@
 //! dimension and seed, so values are a pure function of (pixel, sample
 //! index, dimension, seed).
 
-use super::{jitter_of, permute, Sampler};
+use super::{jitter_of, permute, stratified_1d, Sampler};
 use crate::params::{ParamError, Params};
 use glam::Vec2;
 
@@ -59,8 +59,7 @@ impl MultiJitter {
     /// Dimension value of pattern sample `i` under `key`.
     #[inline]
     pub(super) fn sample_1d(&self, i: u32, key: u32) -> f32 {
-        let count = self.m * self.n;
-        (permute(i, count, key) as f32 + jitter_of(self.jitter, key, i, 0)) / count as f32
+        stratified_1d(i, self.m * self.n, self.jitter, key)
     }
 
     /// Dimension pair of pattern sample `i` under `key` (Kensler's

@@ -18,7 +18,7 @@
 //! Multi-Jittered Sampling"), keyed by pixel, dimension and seed. A render
 //! with more samples than the pattern renders it again with new keys.
 
-use super::{jitter_of, permute, rounded_square_side, Sampler};
+use super::{jitter_of, permute, rounded_square_side, stratified_1d, Sampler};
 use crate::params::{ParamError, Params};
 use glam::Vec2;
 
@@ -43,8 +43,7 @@ impl Stratified {
     /// Dimension value of pattern sample `i` under `key`.
     #[inline]
     pub(super) fn sample_1d(&self, i: u32, key: u32) -> f32 {
-        let n = self.side * self.side;
-        (permute(i, n, key) as f32 + jitter_of(self.jitter, key, i, 0)) / n as f32
+        stratified_1d(i, self.side * self.side, self.jitter, key)
     }
 
     /// Dimension pair of pattern sample `i` under `key`.
