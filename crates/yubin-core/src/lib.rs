@@ -18,6 +18,7 @@ pub mod light;
 pub mod material;
 pub mod math;
 pub mod params;
+pub mod phase;
 pub mod render;
 pub mod sampler;
 pub mod sampling;

@@ -1,0 +1,204 @@
+//! Phase functions (closed enum): how a participating medium scatters
+//! light, one plugin per file (`isotropic`, `hg`, `rayleigh`), for the
+//! media of the volumetric integrators.
+//!
+//! Conventions (Mitsuba 3's): `wo` points from the scattering point back
+//! along the path (minus the incoming ray's direction), `wi` is the new
+//! direction, and a phase function p(wo, wi) integrates to 1 over `wi`.
+//! Every model here is sampled exactly in proportion to p, so a sample's
+//! weight p / pdf is 1.
+
+mod hg;
+mod isotropic;
+mod rayleigh;
+
+use crate::params::{plugin_of, ParamError, Params};
+use glam::{Vec2, Vec3};
+
+/// A phase function.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PhaseFunction {
+    /// `isotropic`: 1 / 4π.
+    Isotropic,
+    /// `hg`: Henyey–Greenstein with mean cosine `g`.
+    HenyeyGreenstein {
+        /// Mean cosine of the scattering angle, in (−1, 1).
+        g: f32,
+    },
+    /// `rayleigh`: 3 (1 + cos²θ) / 16π.
+    Rayleigh,
+}
+
+/// A sampled direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhaseSample {
+    /// The new direction (unit).
+    pub wi: Vec3,
+    /// Its solid-angle density.
+    pub pdf: f32,
+    /// p(wo, wi) / pdf (1 for every model here).
+    pub weight: f32,
+}
+
+/// Builds a phase function plugin from its parameters.
+pub type PhaseFromParams = fn(&mut dyn Params) -> Result<PhaseFunction, ParamError>;
+
+/// Every phase function plugin: its scene type string and constructor.
+pub const PLUGINS: &[(&str, PhaseFromParams)] = &[
+    ("isotropic", |_| Ok(PhaseFunction::Isotropic)),
+    ("hg", hg::from_params),
+    ("rayleigh", |_| Ok(PhaseFunction::Rayleigh)),
+];
+
+impl Default for PhaseFunction {
+    /// Mitsuba's default phase function.
+    fn default() -> Self {
+        PhaseFunction::Isotropic
+    }
+}
+
+impl PhaseFunction {
+    /// Builds the phase function `p` describes, by its plugin type.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        plugin_of(p, "phase", PLUGINS, None)?(p)
+    }
+
+    /// p(wo, wi) per steradian.
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let cos_theta = wo.dot(wi);
+        match *self {
+            PhaseFunction::Isotropic => isotropic::eval(),
+            PhaseFunction::HenyeyGreenstein { g } => hg::eval(g, cos_theta),
+            PhaseFunction::Rayleigh => rayleigh::eval(cos_theta),
+        }
+    }
+
+    /// The density [`PhaseFunction::sample`] gives `wi`: p itself.
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval(wo, wi)
+    }
+
+    /// A new direction for the uniform sample `u`, in proportion to p.
+    #[inline]
+    pub fn sample(&self, wo: Vec3, u: Vec2) -> PhaseSample {
+        let wi = match *self {
+            PhaseFunction::Isotropic => isotropic::sample(u),
+            PhaseFunction::HenyeyGreenstein { g } => hg::sample(g, wo, u),
+            PhaseFunction::Rayleigh => rayleigh::sample(wo, u),
+        };
+        PhaseSample {
+            wi,
+            pdf: self.pdf(wo, wi),
+            weight: 1.0,
+        }
+    }
+}
+
+/// `local` (z the axis) turned so that its z is `-wo`: the direction the
+/// path was travelling, about which the scattering angle is measured.
+#[inline]
+fn about_travel(wo: Vec3, cos_theta: f32, phi: f32) -> Vec3 {
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let local = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
+    crate::math::Frame::from_normal(-wo).to_world(local)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::chi2::{chi2_directions, Chi2Config};
+
+    /// Every phase function: isotropic, Henyey–Greenstein from strongly
+    /// backward to strongly forward, Rayleigh.
+    fn every_variant() -> Vec<PhaseFunction> {
+        let mut v = vec![PhaseFunction::Isotropic, PhaseFunction::Rayleigh];
+        v.extend([-0.9, -0.5, 0.0, 0.3, 0.9].map(|g| PhaseFunction::HenyeyGreenstein { g }));
+        v
+    }
+
+    /// The table-driven test: for every variant and a few incoming
+    /// directions, sampled directions follow the density p (chi-square,
+    /// Šidák-corrected over the table), weights are 1, and p integrates to
+    /// 1 over the sphere.
+    #[test]
+    fn every_phase_function_variant() {
+        let wos = [Vec3::Z, Vec3::new(0.3, -0.5, 0.8).normalize()];
+        let variants = every_variant();
+        let tests = variants.len() * wos.len();
+        let cfg = Chi2Config {
+            alpha: 1.0 - 0.99f64.powf(1.0 / tests as f64),
+            integration_res: 16,
+            ..Chi2Config::default()
+        };
+        let mut failures = Vec::new();
+        for f in &variants {
+            for wo in wos {
+                let result = chi2_directions(
+                    &cfg,
+                    |r| {
+                        let s = f.sample(wo, r.next_2d());
+                        assert!((s.weight - 1.0).abs() < 1e-6);
+                        Some((s.wi, s.pdf))
+                    },
+                    |wi| f.pdf(wo, wi),
+                );
+                if let Err(e) = result {
+                    failures.push(format!("{f:?} wo={wo}: {e}"));
+                }
+                let integral = sphere_integral(|wi| f.eval(wo, wi));
+                if (integral - 1.0).abs() > 2e-3 {
+                    failures.push(format!("{f:?} wo={wo}: ∫ p = {integral}"));
+                }
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// ∫ f over the sphere, midpoint rule in (cos θ, φ) about +z.
+    fn sphere_integral(f: impl Fn(Vec3) -> f32) -> f64 {
+        let (nt, np) = (2000, 200);
+        let mut sum = 0.0f64;
+        for i in 0..nt {
+            let z = -1.0 + 2.0 * (i as f32 + 0.5) / nt as f32;
+            let r = (1.0 - z * z).sqrt();
+            for j in 0..np {
+                let phi = 2.0 * std::f32::consts::PI * (j as f32 + 0.5) / np as f32;
+                sum += f(Vec3::new(r * phi.cos(), r * phi.sin(), z)) as f64;
+            }
+        }
+        sum * 4.0 * std::f64::consts::PI / (nt * np) as f64
+    }
+
+    /// Mitsuba 3's conventions: with g > 0 light keeps going (wi ≈ −wo),
+    /// and the values of its `hg` and `rayleigh` plugins.
+    #[test]
+    fn forward_means_along_the_path_as_in_mitsuba() {
+        let hg = PhaseFunction::HenyeyGreenstein { g: 0.7 };
+        let wo = Vec3::Z;
+        assert!(hg.eval(wo, -wo) > 10.0 * hg.eval(wo, wo));
+        // p(θ) at cos θ = 1 in the travel direction: (1 − g²) / 4π(1 − g)³.
+        let forward = (1.0 - 0.49) / (4.0 * std::f32::consts::PI * 0.3f32.powi(3));
+        assert!((hg.eval(wo, -wo) / forward - 1.0).abs() < 1e-5);
+        let r = PhaseFunction::Rayleigh;
+        let along = 3.0 / (8.0 * std::f32::consts::PI);
+        assert!((r.eval(wo, -wo) - along).abs() < 1e-6 && (r.eval(wo, wo) - along).abs() < 1e-6);
+        assert!((r.eval(wo, Vec3::X) - along / 2.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn hg_refuses_g_outside_the_open_interval() {
+        use crate::testing::params::MapParams;
+        for g in [1.0, -1.0, 1.5, f32::NAN] {
+            let mut p = MapParams::new().float("g", g);
+            let e = hg::from_params(&mut p).unwrap_err().to_string();
+            assert!(e.contains("\"g\""), "{e}");
+        }
+        let mut p = MapParams::new().float("g", -0.95);
+        assert_eq!(
+            hg::from_params(&mut p).unwrap(),
+            PhaseFunction::HenyeyGreenstein { g: -0.95 }
+        );
+    }
+}
