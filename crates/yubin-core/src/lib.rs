@@ -17,6 +17,7 @@ pub mod interaction;
 pub mod light;
 pub mod material;
 pub mod math;
+pub mod medium;
 pub mod params;
 pub mod phase;
 pub mod render;
