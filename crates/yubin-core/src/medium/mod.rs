@@ -7,12 +7,15 @@
 //!   transport", §5): a channel is picked uniformly and the distance
 //!   sampled from its exponential; the density is the average of the three
 //!   channels' densities, so every channel's estimate stays bounded.
+//! - [`Grid`]: voxel grids (Mitsuba's `.vol` data), trilinear lookup.
 //! - [`ratio_tracking`]: unbiased transmittance through any medium below a
 //!   majorant (Novák et al. 2014, "Residual ratio tracking for estimating
 //!   attenuation in participating media").
 
+mod grid;
 mod tracking;
 
+pub use grid::{Grid, GridError};
 pub use tracking::ratio_tracking;
 
 use crate::Rgb;

@@ -1,0 +1,211 @@
+//! A voxel grid of one or three channels (densities, albedos), as
+//! Mitsuba's `gridvolume` holds: values at the voxel centres of a box,
+//! read by trilinear interpolation, clamped at the faces.
+
+use crate::math::Bounds3;
+use crate::Rgb;
+use glam::Vec3;
+
+/// Why a grid cannot be made.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GridError {
+    /// A resolution of zero, or channels other than 1 or 3.
+    Shape(String),
+    /// The data does not hold res.x · res.y · res.z · channels values.
+    Size {
+        /// Values expected.
+        expected: usize,
+        /// Values given.
+        found: usize,
+    },
+    /// A negative or non-finite value.
+    Value {
+        /// The voxel (x, y, z).
+        voxel: [u32; 3],
+        /// The value.
+        value: f32,
+    },
+}
+
+impl std::fmt::Display for GridError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GridError::Shape(msg) => write!(f, "{msg}"),
+            GridError::Size { expected, found } => write!(
+                f,
+                "the grid should hold {expected} values but holds {found} (truncated?)"
+            ),
+            GridError::Value { voxel, value } => write!(
+                f,
+                "voxel {voxel:?} holds {value}: volume values must be finite and >= 0"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for GridError {}
+
+/// A dense grid of voxel values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid {
+    /// Voxels along x, y and z.
+    pub res: [u32; 3],
+    /// 1 or 3.
+    pub channels: u32,
+    /// The box the grid fills (its own space).
+    pub bounds: Bounds3,
+    /// Values, x fastest, then y, then z, channels interleaved.
+    data: Vec<f32>,
+    /// The largest value of any channel (a majorant of the whole grid).
+    max: f32,
+}
+
+impl Grid {
+    /// A grid from its values (x fastest, then y, z; channels
+    /// interleaved), checked: every value finite and non-negative.
+    pub fn new(
+        res: [u32; 3],
+        channels: u32,
+        bounds: Bounds3,
+        data: Vec<f32>,
+    ) -> Result<Self, GridError> {
+        if res.contains(&0) {
+            return Err(GridError::Shape(format!("resolution {res:?} has a zero")));
+        }
+        if channels != 1 && channels != 3 {
+            return Err(GridError::Shape(format!(
+                "{channels} channels: a volume has 1 or 3"
+            )));
+        }
+        let expected = res.iter().map(|&r| r as usize).product::<usize>() * channels as usize;
+        if data.len() != expected {
+            return Err(GridError::Size {
+                expected,
+                found: data.len(),
+            });
+        }
+        if let Some(i) = data.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+            let voxel = i / channels as usize;
+            let (x, y, z) = (
+                voxel % res[0] as usize,
+                voxel / res[0] as usize % res[1] as usize,
+                voxel / (res[0] as usize * res[1] as usize),
+            );
+            return Err(GridError::Value {
+                voxel: [x as u32, y as u32, z as u32],
+                value: data[i],
+            });
+        }
+        let max = data.iter().copied().fold(0.0, f32::max);
+        Ok(Self {
+            res,
+            channels,
+            bounds,
+            data,
+            max,
+        })
+    }
+
+    /// The largest value in the grid.
+    pub fn max(&self) -> f32 {
+        self.max
+    }
+
+    /// The value of voxel (x, y, z), clamped to the grid, as RGB (a single
+    /// channel repeated).
+    #[inline]
+    fn voxel(&self, x: i64, y: i64, z: i64) -> Rgb {
+        let clamp = |v: i64, r: u32| v.clamp(0, r as i64 - 1) as usize;
+        let (x, y, z) = (
+            clamp(x, self.res[0]),
+            clamp(y, self.res[1]),
+            clamp(z, self.res[2]),
+        );
+        let i = (z * self.res[1] as usize + y) * self.res[0] as usize + x;
+        if self.channels == 1 {
+            Rgb::splat(self.data[i])
+        } else {
+            Rgb::from_slice(&self.data[3 * i..3 * i + 3])
+        }
+    }
+
+    /// The trilinearly interpolated value at `p` (the grid's own space);
+    /// zero outside its box.
+    pub fn eval(&self, p: Vec3) -> Rgb {
+        let b = &self.bounds;
+        if !(p.cmpge(b.min).all() && p.cmple(b.max).all()) {
+            return Rgb::ZERO;
+        }
+        let res = Vec3::new(self.res[0] as f32, self.res[1] as f32, self.res[2] as f32);
+        // Voxel centres sit at (i + 1/2) / res of the box.
+        let q = (p - b.min) / (b.max - b.min) * res - Vec3::splat(0.5);
+        let base = q.floor();
+        let f = q - base;
+        let (x, y, z) = (base.x as i64, base.y as i64, base.z as i64);
+        let lerp = |a: Rgb, b: Rgb, t: f32| a + (b - a) * t;
+        let plane = |dz: i64| {
+            let row = |dy: i64| {
+                lerp(
+                    self.voxel(x, y + dy, z + dz),
+                    self.voxel(x + 1, y + dy, z + dz),
+                    f.x,
+                )
+            };
+            lerp(row(0), row(1), f.y)
+        };
+        lerp(plane(0), plane(1), f.z)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_box() -> Bounds3 {
+        Bounds3 {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        }
+    }
+
+    #[test]
+    fn trilinear_at_centres_between_and_outside() {
+        // 2 × 1 × 1, values 1 and 3: centres at x = 1/4 and 3/4.
+        let g = Grid::new([2, 1, 1], 1, unit_box(), vec![1.0, 3.0]).unwrap();
+        assert_eq!(g.eval(Vec3::new(0.25, 0.5, 0.5)), Rgb::splat(1.0));
+        assert_eq!(g.eval(Vec3::new(0.5, 0.5, 0.5)), Rgb::splat(2.0));
+        assert_eq!(g.eval(Vec3::new(0.9, 0.1, 0.9)), Rgb::splat(3.0));
+        assert_eq!(g.eval(Vec3::new(1.1, 0.5, 0.5)), Rgb::ZERO);
+        assert_eq!(g.max(), 3.0);
+        let rgb = Grid::new([1, 1, 2], 3, unit_box(), vec![0.0, 1.0, 2.0, 2.0, 3.0, 4.0]).unwrap();
+        assert_eq!(rgb.eval(Vec3::new(0.5, 0.5, 0.5)), Rgb::new(1.0, 2.0, 3.0));
+    }
+
+    #[test]
+    fn bad_grids_are_refused() {
+        let b = unit_box();
+        assert!(matches!(
+            Grid::new([0, 1, 1], 1, b, vec![]),
+            Err(GridError::Shape(_))
+        ));
+        assert!(matches!(
+            Grid::new([1, 1, 1], 2, b, vec![0.0; 2]),
+            Err(GridError::Shape(_))
+        ));
+        assert_eq!(
+            Grid::new([2, 2, 1], 1, b, vec![0.0; 3]),
+            Err(GridError::Size {
+                expected: 4,
+                found: 3
+            })
+        );
+        assert_eq!(
+            Grid::new([2, 2, 1], 1, b, vec![0.0, 0.0, 0.0, -1.0]),
+            Err(GridError::Value {
+                voxel: [1, 1, 0],
+                value: -1.0
+            })
+        );
+        assert!(Grid::new([1, 1, 1], 3, b, vec![0.0, f32::NAN, 0.0]).is_err());
+    }
+}
