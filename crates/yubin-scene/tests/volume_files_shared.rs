@@ -60,7 +60,7 @@ fn mitsuba_vol_files_match_mitsuba_shared() {
             }
         }
         assert!(
-            (total / sum as f64 - 1.0).abs() < 1e-4,
+            (total / sum - 1.0).abs() < 1e-4,
             "{file}: sum {total} vs {sum}"
         );
     }
