@@ -111,6 +111,13 @@ impl Grid {
         self.max
     }
 
+    /// The largest channel of voxel `v` (inside the grid).
+    #[inline]
+    pub(crate) fn voxel_max(&self, v: [u32; 3]) -> f32 {
+        self.voxel(v[0] as i64, v[1] as i64, v[2] as i64)
+            .max_element()
+    }
+
     /// The value of voxel (x, y, z), clamped to the grid, as RGB (a single
     /// channel repeated).
     #[inline]
