@@ -9,16 +9,19 @@
 //!   channels' densities, so every channel's estimate stays bounded.
 //! - [`Grid`]: voxel grids (Mitsuba's `.vol` data), trilinear lookup.
 //! - [`MajorantGrid`]: per-cell majorants of a grid, walked by a DDA.
+//! - [`Pyroclastic`]: seed 003's pyroclastic cloud density.
 //! - [`ratio_tracking`]: unbiased transmittance through any medium below a
 //!   majorant (Novák et al. 2014, "Residual ratio tracking for estimating
 //!   attenuation in participating media").
 
 mod grid;
 mod majorant;
+mod pyroclastic;
 mod tracking;
 
 pub use grid::{Grid, GridError};
 pub use majorant::MajorantGrid;
+pub use pyroclastic::Pyroclastic;
 pub use tracking::ratio_tracking;
 
 use crate::Rgb;
