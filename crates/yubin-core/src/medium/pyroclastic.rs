@@ -125,7 +125,11 @@ mod tests {
         let mut radii = Vec::new();
         for _ in 0..200 {
             let u = crate::sampling::square_to_uniform_sphere(rng.next_2d());
-            assert_eq!(c.eval(c.center + u * 0.94), 3.0, "inside the sphere less its shell");
+            assert_eq!(
+                c.eval(c.center + u * 0.94),
+                3.0,
+                "inside the sphere less its shell"
+            );
             assert_eq!(c.eval(c.center + u * (c.bounding_radius() + 1e-3)), 0.0);
             // The outline along u, by bisection on the density's edge.
             let (mut lo, mut hi) = (0.94f32, c.bounding_radius() + 1e-3);
