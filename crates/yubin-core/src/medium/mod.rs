@@ -138,6 +138,16 @@ mod tests {
             .collect();
         expected.push((1.0 - cdf(t_max)) * n as f64);
         chi2_discrete(&counts, &expected, 0.01).unwrap();
+        // pdf_distance is the CDF's derivative (what MIS will weigh with).
+        for t in [0.01, 0.3, 1.1, 1.9] {
+            let h = 1e-3;
+            let slope = (cdf(t + h) - cdf(t - h)) / (2.0 * h as f64);
+            let pdf = m.pdf_distance(t) as f64;
+            assert!(
+                (pdf / slope - 1.0).abs() < 1e-3,
+                "t {t}: pdf {pdf} vs slope {slope}"
+            );
+        }
     }
 
     /// The weights are bounded and make unbiased estimates per channel:
