@@ -28,6 +28,7 @@ pub mod shape;
 pub mod spectrum;
 pub mod testing;
 pub mod texture;
+pub mod volume;
 
 pub use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec3A};
 pub use scene::{Scene, SceneBuilder, ShapeEmitter};

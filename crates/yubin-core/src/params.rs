@@ -70,6 +70,10 @@ pub enum Family {
     Rfilter,
     /// `<integrator>`.
     Integrator,
+    /// `<phase>`: a medium's phase function.
+    Phase,
+    /// `<volume>`: a medium's spatially varying parameter.
+    Volume,
 }
 
 /// The constructor of `p`'s plugin type in a family's plugin table
@@ -122,6 +126,24 @@ pub trait Params {
             return Ok(None);
         }
         Ok(self.child(family)?.map(|c| (String::new(), c)))
+    }
+    /// The nested object of `family` that the parent calls `name`
+    /// (`<volume name="albedo" ...>`), if any, marked read. A front end
+    /// without nested objects has none.
+    fn named_child(
+        &mut self,
+        _family: Family,
+        _name: &str,
+    ) -> Result<Option<Box<dyn Params + '_>>, ParamError> {
+        Ok(None)
+    }
+    /// The voxel grid in the file named by string parameter `name`
+    /// (Mitsuba's `.vol`), read by the front end (each file once).
+    fn grid_file(
+        &mut self,
+        name: &str,
+    ) -> Result<Option<std::sync::Arc<crate::medium::Grid>>, ParamError> {
+        Err(self.param_error(name, "this front end reads no volume files"))
     }
     /// An error whose message is `msg` prefixed by the location of parameter
     /// `name` (of the object itself when `name` is `None` or absent).

@@ -35,6 +35,18 @@ pub struct ShapeInfo {
     pub bsdf: u32,
     /// Index into [`Scene::emitters`] when the shape is an area light.
     pub emitter: Option<u32>,
+    /// The medium inside the shape (index into [`Scene::media`]).
+    pub interior: Option<u32>,
+    /// The medium outside the shape.
+    pub exterior: Option<u32>,
+}
+
+impl ShapeInfo {
+    /// Rays crossing the shape change medium.
+    #[inline]
+    pub fn is_medium_transition(&self) -> bool {
+        self.interior.is_some() || self.exterior.is_some()
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -218,6 +230,11 @@ pub struct Scene {
     pub film: Film,
     /// The sampler.
     pub sampler: Sampler,
+    /// Participating media, referred to by [`ShapeInfo`] and
+    /// [`Scene::camera_medium`].
+    pub media: Vec<crate::medium::Medium>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
     groups: Vec<Group>,
     instances: Vec<Instance>,
     /// (shape in a group, its world copy in one instance), for each
@@ -226,6 +243,9 @@ pub struct Scene {
     /// Some shape's BSDF lets light through (`null`, `mask`): shadow rays
     /// may have to look past their first hit.
     has_pass_through: bool,
+    /// Some shape lets light straight through with `thindielectric` slabs
+    /// counted ([`Bsdf::lets_light_through`]).
+    has_null_transmission: bool,
 }
 
 impl Scene {
@@ -490,6 +510,42 @@ impl Scene {
         0.0
     }
 
+    /// The medium a ray leaving the hit `si` in direction `d` travels in,
+    /// coming from `current`: the shape's interior or exterior when the
+    /// shape bounds media (by the side of its normal `d` is on), else
+    /// unchanged.
+    #[inline]
+    pub fn medium_after(
+        &self,
+        si: &SurfaceInteraction,
+        d: glam::Vec3,
+        current: Option<u32>,
+    ) -> Option<u32> {
+        let info = &self.shape_info[si.shape as usize];
+        if !info.is_medium_transition() {
+            return current;
+        }
+        if d.dot(si.n) > 0.0 {
+            info.exterior
+        } else {
+            info.interior
+        }
+    }
+
+    /// Whether shadow rays may have to look past surfaces: some surface
+    /// lets light straight through (`null`, `mask`, `thindielectric`
+    /// slabs) or media fill shapes.
+    #[inline]
+    pub fn shadow_rays_cross_surfaces(&self) -> bool {
+        self.has_null_transmission || self.has_media()
+    }
+
+    /// Whether any medium is in the scene.
+    #[inline]
+    pub fn has_media(&self) -> bool {
+        !self.media.is_empty()
+    }
+
     /// The BSDF of a shape.
     #[inline]
     pub fn bsdf_of(&self, shape: u32) -> &Bsdf {
@@ -656,6 +712,8 @@ pub struct SceneBuilder {
     camera: Option<Camera>,
     film: Film,
     sampler: Sampler,
+    media: Vec<crate::medium::Medium>,
+    camera_medium: Option<u32>,
 }
 
 impl Default for SceneBuilder {
@@ -682,6 +740,8 @@ impl SceneBuilder {
             camera: None,
             film: Film::default(),
             sampler: Sampler::default(),
+            media: Vec::new(),
+            camera_medium: None,
         }
     }
 
@@ -843,7 +903,12 @@ impl SceneBuilder {
         });
         let prims = shape.prim_count(&self.meshes);
         self.shapes.push(shape);
-        self.shape_info.push(ShapeInfo { bsdf, emitter });
+        self.shape_info.push(ShapeInfo {
+            bsdf,
+            emitter,
+            interior: None,
+            exterior: None,
+        });
         let is_mesh = matches!(shape, Shape::Mesh(_));
         self.groups[group as usize].extend((0..prims).map(|prim| {
             if is_mesh {
@@ -934,14 +999,58 @@ impl SceneBuilder {
                 self.set_emitter_options(emitter, g.options);
                 self.shapes.push(copy);
                 self.shape_info.push(ShapeInfo {
-                    bsdf: self.shape_info[g.shape as usize].bsdf,
                     emitter: Some(emitter),
+                    ..self.shape_info[g.shape as usize]
                 });
                 placed.push((g.shape, id));
             }
             self.instances[i].placed_emitters = (start, placed.len() as u32 - start);
         }
         Ok(placed)
+    }
+
+    /// Adds a participating medium; returns its index.
+    pub fn add_medium(&mut self, m: crate::medium::Medium) -> u32 {
+        self.media.push(m);
+        self.media.len() as u32 - 1
+    }
+
+    /// Sets the media inside and outside shape `shape`.
+    pub fn set_shape_media(
+        &mut self,
+        shape: u32,
+        interior: Option<u32>,
+        exterior: Option<u32>,
+    ) -> Result<(), BuildError> {
+        self.check_medium(interior)?;
+        self.check_medium(exterior)?;
+        let info = self
+            .shape_info
+            .get_mut(shape as usize)
+            .ok_or(BuildError::BadIndex {
+                what: "shape",
+                index: shape,
+            })?;
+        info.interior = interior;
+        info.exterior = exterior;
+        Ok(())
+    }
+
+    /// Sets the medium the camera sits in.
+    pub fn camera_medium(&mut self, medium: Option<u32>) -> Result<&mut Self, BuildError> {
+        self.check_medium(medium)?;
+        self.camera_medium = medium;
+        Ok(self)
+    }
+
+    fn check_medium(&self, medium: Option<u32>) -> Result<(), BuildError> {
+        match medium {
+            Some(m) if m as usize >= self.media.len() => Err(BuildError::BadIndex {
+                what: "medium",
+                index: m,
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// How next-event estimation will choose emitters.
@@ -1108,6 +1217,9 @@ impl SceneBuilder {
             b.flags(&self.materials)
                 .intersects(crate::bsdf::BsdfFlags::NULL)
         });
+        let has_null_transmission = self.shape_info.iter().any(|info| {
+            self.materials.bsdfs[info.bsdf as usize].lets_light_through(&self.materials)
+        });
         let bounds = groups.first().map_or(Bounds3::EMPTY, |g| g.bvh.bounds());
         let radius = if bounds.is_empty() {
             1.0
@@ -1132,6 +1244,7 @@ impl SceneBuilder {
             shapes: self.shapes,
             shape_info: self.shape_info,
             has_pass_through,
+            has_null_transmission,
             materials: self.materials,
             emitters: self.emitters,
             emitter_options: self.emitter_options,
@@ -1141,6 +1254,8 @@ impl SceneBuilder {
             camera,
             film: self.film,
             sampler: self.sampler,
+            media: self.media,
+            camera_medium: self.camera_medium,
             groups,
             instances: self.instances,
             placed_emitters,

@@ -72,6 +72,8 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         textures: HashMap::new(),
         images: HashMap::new(),
         groups: HashMap::new(),
+        grids: HashMap::new(),
+        media: HashMap::new(),
         warnings: Vec::new(),
         reading: Vec::new(),
         texture_reads: HashMap::new(),
@@ -125,6 +127,9 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
             | Category::Sampler
             | Category::Film
             | Category::Rfilter
+            | Category::Medium
+            | Category::Phase
+            | Category::Volume
                 if obj.id.is_some() =>
             {
                 child.used.set(true);
@@ -156,6 +161,10 @@ pub(crate) struct Builder<'a> {
     textures: HashMap<*const Object, u32>,
     images: HashMap<PathBuf, u32>,
     groups: HashMap<*const Object, u32>,
+    /// Voxel grids by file (each read once).
+    grids: HashMap<PathBuf, std::sync::Arc<yubin_core::medium::Grid>>,
+    /// Built media by object (a shared medium is built once).
+    media: HashMap<*const Object, u32>,
     pub(crate) warnings: Vec<String>,
     /// Mesh attributes (name indices) read by the BSDF or texture being
     /// built, innermost last: a shape's BSDF is checked against its mesh.
@@ -212,6 +221,10 @@ impl Builder<'_> {
     /// Builds camera, film and sampler; returns the sampler's seed.
     fn sensor(&mut self, obj: &Object) -> Result<u32, SceneError> {
         let sensor = Sensor::from_params(&mut ObjParams { obj, b: self })?;
+        let medium = self.medium_child(obj, None)?;
+        self.sb
+            .camera_medium(medium)
+            .map_err(|e| obj.error(e.to_string()))?;
         self.sb
             .camera(sensor.camera)
             .film(sensor.film)
@@ -320,6 +333,60 @@ impl Builder<'_> {
         let id = self.sb.add_image(image);
         self.images.insert(key, id);
         Ok(id)
+    }
+
+    /// Reads a `.vol` voxel grid (once per file).
+    pub(crate) fn grid(
+        &mut self,
+        name: &str,
+        loc: &Location,
+    ) -> Result<std::sync::Arc<yubin_core::medium::Grid>, SceneError> {
+        let path = self.desc.resolve_file(name, loc)?;
+        let key = path.canonicalize().unwrap_or_else(|_| path.clone());
+        if let Some(g) = self.grids.get(&key) {
+            return Ok(g.clone());
+        }
+        let grid = crate::volume_io::read_vol(&path).map_err(|e| SceneError::at(loc, e))?;
+        let grid = std::sync::Arc::new(grid);
+        self.grids.insert(key, grid.clone());
+        Ok(grid)
+    }
+
+    /// Builds a medium (once per shared object); returns its index.
+    fn medium(&mut self, obj: &Rc<Object>) -> Result<u32, SceneError> {
+        let key = Rc::as_ptr(obj);
+        if let Some(&id) = self.media.get(&key) {
+            return Ok(id);
+        }
+        let medium = yubin_core::medium::from_params(&mut ObjParams { obj, b: self })?;
+        let id = self.sb.add_medium(medium);
+        self.media.insert(key, id);
+        Ok(id)
+    }
+
+    /// The medium nested in `obj` under `name` (`interior`, `exterior`), or
+    /// its one unnamed medium when `name` is `None` (a sensor's).
+    fn medium_child(
+        &mut self,
+        obj: &Object,
+        name: Option<&str>,
+    ) -> Result<Option<u32>, SceneError> {
+        let child = match name {
+            Some(n) => match obj.find_named_child(n) {
+                Some(c) if c.category == Category::Medium => obj.child(n).map(|c| c.object.clone()),
+                Some(c) => {
+                    return Err(SceneError::at(
+                        &obj.child(n).expect("found above").loc,
+                        format!("\"{n}\" must be a medium, not a {}", c.category),
+                    ))
+                }
+                None => None,
+            },
+            None => obj
+                .single_child(Category::Medium)?
+                .map(|c| c.object.clone()),
+        };
+        child.map(|c| self.medium(&c)).transpose()
     }
 
     /// A `<spectrum type="...">` object as RGB for its role.
@@ -432,6 +499,13 @@ impl Builder<'_> {
             .map_err(|e| obj.error(e.to_string()))?;
         if let Some((_, options)) = emission {
             self.sb.set_shape_emitter_options(id, options);
+        }
+        let interior = self.medium_child(obj, Some("interior"))?;
+        let exterior = self.medium_child(obj, Some("exterior"))?;
+        if interior.is_some() || exterior.is_some() {
+            self.sb
+                .set_shape_media(id, interior, exterior)
+                .map_err(|e| obj.error(e.to_string()))?;
         }
         Ok(())
     }

@@ -45,6 +45,8 @@ fn category_of(family: Family) -> Category {
         Family::Sampler => Category::Sampler,
         Family::Rfilter => Category::Rfilter,
         Family::Integrator => Category::Integrator,
+        Family::Phase => Category::Phase,
+        Family::Volume => Category::Volume,
     }
 }
 
@@ -57,7 +59,7 @@ impl ObjParams<'_, '_, '_> {
     }
 
     /// The nested object called `name`, if there is one.
-    fn named_child(&self, name: &str) -> Option<std::rc::Rc<Object>> {
+    fn named_object(&self, name: &str) -> Option<std::rc::Rc<Object>> {
         self.obj.child(name).map(|c| c.object.clone())
     }
 }
@@ -99,6 +101,36 @@ impl Params for ObjParams<'_, '_, '_> {
                 b: &mut *self.b,
             }) as Box<dyn Params + '_>,
         )))
+    }
+
+    fn named_child(
+        &mut self,
+        family: Family,
+        name: &str,
+    ) -> Result<Option<Box<dyn Params + '_>>, ParamError> {
+        let obj = self.obj;
+        match obj.find_named_child(name) {
+            Some(c) if c.category == category_of(family) => {
+                let child = obj.child(name).expect("found above");
+                Ok(Some(Box::new(ObjParams {
+                    obj: &child.object,
+                    b: &mut *self.b,
+                }) as Box<dyn Params + '_>))
+            }
+            _ => Ok(None),
+        }
+    }
+
+    fn grid_file(
+        &mut self,
+        name: &str,
+    ) -> Result<Option<std::sync::Arc<yubin_core::medium::Grid>>, ParamError> {
+        let Some(file) = self.obj.string(name).map_err(to_param)? else {
+            return Ok(None);
+        };
+        let file = file.to_owned();
+        let loc = self.obj.loc_of(name).clone();
+        self.b.grid(&file, &loc).map(Some).map_err(to_param)
     }
 
     fn error_at(&self, name: Option<&str>, msg: &str) -> ParamError {
@@ -146,7 +178,7 @@ impl Params for ObjParams<'_, '_, '_> {
     }
 
     fn color(&mut self, name: &str, kind: ColorKind) -> Result<Option<Rgb>, ParamError> {
-        if let Some(child) = self.named_child(name) {
+        if let Some(child) = self.named_object(name) {
             return match child.category {
                 Category::Spectrum => {
                     let rgb = self.b.spectrum_object(&child, kind)?;

@@ -258,7 +258,10 @@ pub(crate) mod tests {
                 (TransportMode::Radiance, w_rad),
                 (TransportMode::Importance, w_imp),
             ] {
-                let ctx = BsdfContext { mode };
+                let ctx = BsdfContext {
+                    mode,
+                    ..BsdfContext::default()
+                };
                 let wo = Vec3::from_array(wo);
                 let s = b.sample(&t, &ctx, &si, wo, u1, Vec2::splat(0.5)).unwrap();
                 let msg = format!("η {eta} wo {wo} u1 {u1} {mode:?}: {s:?}");

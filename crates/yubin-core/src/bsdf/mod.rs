@@ -86,6 +86,10 @@ pub enum TransportMode {
 pub struct BsdfContext {
     /// Radiance or importance.
     pub mode: TransportMode,
+    /// Report `thindielectric` transmission as a null lobe (Mitsuba 3's
+    /// convention, which `volpath` follows: it does not count as a
+    /// bounce, and shadow rays cross the slab).
+    pub null_slabs: bool,
 }
 
 /// Lobe flags: what kinds of scattering a BSDF (or one sample) has.
@@ -262,15 +266,28 @@ impl Bsdf {
     /// lobe of a glass, not a hole, and stays opaque to shadow rays, as in
     /// Mitsuba).
     pub fn pass_through(&self, m: &Materials, si: &SurfaceInteraction) -> f32 {
+        self.null_transmission(m, si, false).x
+    }
+
+    /// What the surface at `si` lets straight through along the ray
+    /// (Mitsuba 3's `eval_null_transmission`): 1 for `null`, 1 − α for a
+    /// `mask`, mixed through `blendbsdf` and `twosided`; with `slabs`, also
+    /// a `thindielectric`'s transmittance (1 − R′) T, whose transmitted
+    /// direction is the incident one (`volpath` crosses slabs so, as
+    /// Mitsuba's does).
+    pub fn null_transmission(&self, m: &Materials, si: &SurfaceInteraction, slabs: bool) -> Rgb {
         match self {
-            Bsdf::Null(_) => 1.0,
+            Bsdf::Null(_) => Rgb::ONE,
             Bsdf::Mask(b) => {
                 let alpha = b.alpha(m, si);
-                (1.0 - alpha) + alpha * m.bsdfs[b.nested as usize].pass_through(m, si)
+                Rgb::splat(1.0 - alpha)
+                    + alpha * m.bsdfs[b.nested as usize].null_transmission(m, si, slabs)
             }
             Bsdf::BlendBsdf(b) => {
                 let w = b.weight.eval_1(m, si).clamp(0.0, 1.0);
-                let [x, y] = b.bsdfs.map(|i| m.bsdfs[i as usize].pass_through(m, si));
+                let [x, y] = b
+                    .bsdfs
+                    .map(|i| m.bsdfs[i as usize].null_transmission(m, si, slabs));
                 x * (1.0 - w) + y * w
             }
             Bsdf::TwoSided(t) => {
@@ -279,9 +296,21 @@ impl Bsdf {
                 } else {
                     t.back
                 };
-                m.bsdfs[side as usize].pass_through(m, si)
+                m.bsdfs[side as usize].null_transmission(m, si, slabs)
             }
-            _ => 0.0,
+            Bsdf::ThinDielectric(t) if slabs => t.null_transmission(m, si),
+            _ => Rgb::ZERO,
+        }
+    }
+
+    /// Whether [`Bsdf::null_transmission`] with `slabs` can be non-zero.
+    pub fn lets_light_through(&self, m: &Materials) -> bool {
+        let nested = |i: u32| m.bsdfs[i as usize].lets_light_through(m);
+        match self {
+            Bsdf::Null(_) | Bsdf::Mask(_) | Bsdf::ThinDielectric(_) => true,
+            Bsdf::BlendBsdf(b) => b.bsdfs.iter().any(|&i| nested(i)),
+            Bsdf::TwoSided(t) => nested(t.front) || nested(t.back),
+            _ => false,
         }
     }
 
@@ -547,6 +576,7 @@ pub(crate) mod tests {
         let (b, si) = (m.bsdfs[id], flat_si());
         let ctx = BsdfContext {
             mode: TransportMode::Importance,
+            ..BsdfContext::default()
         };
         let mut rng = Pcg32::new(9, 9);
         let n = 100_000;
@@ -565,11 +595,14 @@ pub(crate) mod tests {
     /// what shadow rays get through the surface ([`Bsdf::pass_through`]),
     /// for light arriving along `-wo`. Light sampling reaches what null
     /// samples reach only if the two agree.
-    pub(crate) fn null_part(m: &Materials, id: usize, wo: Vec3) -> (Rgb, f32) {
+    /// With `slabs`, as `volpath` asks ([`BsdfContext::null_slabs`],
+    /// [`Bsdf::null_transmission`]).
+    pub(crate) fn null_part(m: &Materials, id: usize, wo: Vec3, slabs: bool) -> (Rgb, Rgb) {
         let b = m.bsdfs[id];
         let si = SurfaceInteraction { wo, ..flat_si() };
         let ctx = BsdfContext {
             mode: TransportMode::Importance,
+            null_slabs: slabs,
         };
         let mut rng = Pcg32::new(7, 7);
         let n = 100_000;
@@ -581,7 +614,12 @@ pub(crate) mod tests {
             .filter(|s| s.sampled == BsdfFlags::NULL)
             .map(|s| s.weight.as_dvec3())
             .sum();
-        ((sum / n as f64).as_vec3(), b.pass_through(m, &si))
+        let pass = if slabs {
+            b.null_transmission(m, &si, true)
+        } else {
+            Rgb::splat(b.pass_through(m, &si))
+        };
+        ((sum / n as f64).as_vec3(), pass)
     }
 
     /// One configuration of a BSDF for the table-driven tests: the tables
@@ -702,12 +740,15 @@ pub(crate) mod tests {
                 if v.lossless && (a - Rgb::ONE).abs().max_element() > 0.01 {
                     failures.push(format!("{} wo={wo}: lossless but albedo {a}", v.name));
                 }
-                let (null, pass) = null_part(&v.m, v.id, wo);
-                if (null - Rgb::splat(pass)).abs().max_element() > 0.01 {
-                    failures.push(format!(
-                        "{} wo={wo}: null samples carry {null}, shadow rays pass {pass}",
-                        v.name
-                    ));
+                for slabs in [false, true] {
+                    let (null, pass) = null_part(&v.m, v.id, wo, slabs);
+                    if (null - pass).abs().max_element() > 0.01 {
+                        failures.push(format!(
+                            "{} wo={wo} (slabs {slabs}): null samples carry {null}, \
+                             shadow rays pass {pass}",
+                            v.name
+                        ));
+                    }
                 }
             }
             if !v.reciprocal {

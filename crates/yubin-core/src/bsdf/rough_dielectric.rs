@@ -376,7 +376,10 @@ pub(crate) mod tests {
                 (TransportMode::Radiance, rad),
                 (TransportMode::Importance, imp),
             ] {
-                let ctx = BsdfContext { mode };
+                let ctx = BsdfContext {
+                    mode,
+                    ..BsdfContext::default()
+                };
                 let got = b.eval(&t, &ctx, &si, wo, wi);
                 assert!(
                     (got - Rgb::splat(want)).abs().max_element() <= 1e-4 * want.max(1e-3),

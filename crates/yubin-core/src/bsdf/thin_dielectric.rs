@@ -27,11 +27,13 @@
 //! its radiance scale (η = 1). Two-sided.
 //!
 //! Transmission is a delta transmission lobe. Mitsuba 3 flags it `Null`,
-//! but its shadow rays stop at the slab as yubin's do, and its `path`
+//! but its `path`'s shadow rays stop at the slab as yubin's do, and its `path`
 //! treats a null sample like any delta one for MIS. yubin's `path` keeps
 //! the previous vertex's density across null lobes because its shadow
 //! rays cross null surfaces; flagged null, light through a slab would be
 //! counted by neither strategy where the previous vertex is not smooth.
+//! `volpath` (whose shadow rays cross slabs, as Mitsuba's `volpath`'s do)
+//! asks for the null flag through [`BsdfContext::null_slabs`].
 
 use super::dielectric::Dielectric;
 use super::fresnel::{fresnel_dielectric, reflect};
@@ -56,6 +58,12 @@ impl ThinDielectric {
     /// Builds the BSDF from its scene parameters.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
         Dielectric::from_params(p).map(Self)
+    }
+
+    /// What passes straight through along the ray at `si`: (1 − R′) T.
+    pub fn null_transmission(&self, m: &Materials, si: &SurfaceInteraction) -> Rgb {
+        let cos_theta = si.to_local(si.wo).z;
+        (1.0 - self.reflectance(cos_theta)) * self.0.specular_transmittance.eval(m, si)
     }
 
     /// The slab's reflectance for a direction with cosine `cos_theta`.
@@ -83,7 +91,7 @@ impl BsdfModel for ThinDielectric {
     fn sample(
         &self,
         m: &Materials,
-        _: &BsdfContext,
+        ctx: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
         u1: f32,
@@ -103,7 +111,11 @@ impl BsdfModel for ThinDielectric {
                 wi: -wo,
                 pdf: 1.0 - r,
                 eta: 1.0,
-                sampled: BsdfFlags::DELTA_TRANSMISSION,
+                sampled: if ctx.null_slabs {
+                    BsdfFlags::NULL
+                } else {
+                    BsdfFlags::DELTA_TRANSMISSION
+                },
                 weight: self.0.specular_transmittance.eval(m, si),
             }
         })

@@ -13,6 +13,7 @@ mod direct;
 mod moment;
 mod path;
 mod ptracer;
+mod volpath;
 
 pub use ao::AoIntegrator;
 pub use aov::{parse_aovs, AovIntegrator, AovKind};
@@ -20,6 +21,7 @@ pub use direct::DirectIntegrator;
 pub use moment::MomentIntegrator;
 pub use path::PathIntegrator;
 pub use ptracer::ParticleTracer;
+pub use volpath::VolPathIntegrator;
 
 /// Builds an integrator plugin from its parameters.
 pub type IntegratorFromParams = fn(&mut dyn Params) -> Result<Box<dyn Integrator>, ParamError>;
@@ -36,6 +38,12 @@ pub const PLUGINS: &[(&str, IntegratorFromParams)] = &[
     ("aov", |p| Ok(Box::new(AovIntegrator::from_params(p)?))),
     ("ao", |p| Ok(Box::new(AoIntegrator::from_params(p)?))),
     ("ptracer", |p| Ok(Box::new(ParticleTracer::from_params(p)?))),
+    ("volpath", |p| {
+        Ok(Box::new(VolPathIntegrator::from_params(p)?))
+    }),
+    ("volpathmis", |p| {
+        Ok(Box::new(VolPathIntegrator::from_params(p)?))
+    }),
 ];
 
 /// Builds the integrator `p` describes, by its plugin type.

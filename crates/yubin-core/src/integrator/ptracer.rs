@@ -224,6 +224,7 @@ impl ParticleTracer {
     ) {
         let ctx = BsdfContext {
             mode: TransportMode::Importance,
+            ..BsdfContext::default()
         };
         let u_pick = sampler.next_1d();
         let u_pos = sampler.next_2d();
@@ -301,6 +302,7 @@ impl ParticleTracer {
         };
         let ctx = BsdfContext {
             mode: TransportMode::Importance,
+            ..BsdfContext::default()
         };
         let f = bsdf.eval(&scene.materials, &ctx, si, wo, si.to_local(sensor.wi));
         if f == Rgb::ZERO {

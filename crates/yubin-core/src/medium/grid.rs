@@ -3,6 +3,7 @@
 //! read by trilinear interpolation, clamped at the faces.
 
 use crate::math::Bounds3;
+use crate::texture::WrapMode;
 use crate::Rgb;
 use glam::Vec3;
 
@@ -122,11 +123,16 @@ impl Grid {
     /// channel repeated).
     #[inline]
     fn voxel(&self, x: i64, y: i64, z: i64) -> Rgb {
-        let clamp = |v: i64, r: u32| v.clamp(0, r as i64 - 1) as usize;
+        self.wrapped_voxel(x, y, z, WrapMode::Clamp)
+    }
+
+    /// The value of voxel (x, y, z), its indices wrapped by `wrap`.
+    #[inline]
+    fn wrapped_voxel(&self, x: i64, y: i64, z: i64, wrap: WrapMode) -> Rgb {
         let (x, y, z) = (
-            clamp(x, self.res[0]),
-            clamp(y, self.res[1]),
-            clamp(z, self.res[2]),
+            wrap.index(x, self.res[0]) as usize,
+            wrap.index(y, self.res[1]) as usize,
+            wrap.index(z, self.res[2]) as usize,
         );
         let i = (z * self.res[1] as usize + y) * self.res[0] as usize + x;
         if self.channels == 1 {
@@ -143,9 +149,22 @@ impl Grid {
         if !(p.cmpge(b.min).all() && p.cmple(b.max).all()) {
             return Rgb::ZERO;
         }
+        self.lookup(p, WrapMode::Clamp, false)
+    }
+
+    /// The value at `p` (the grid's own space) anywhere: voxel indices
+    /// outside the grid wrap by `wrap` (as a texture's texels do);
+    /// trilinear between voxel centres, or the nearest voxel.
+    pub fn lookup(&self, p: Vec3, wrap: WrapMode, nearest: bool) -> Rgb {
+        let b = &self.bounds;
         let res = Vec3::new(self.res[0] as f32, self.res[1] as f32, self.res[2] as f32);
         // Voxel centres sit at (i + 1/2) / res of the box.
-        let q = (p - b.min) / (b.max - b.min) * res - Vec3::splat(0.5);
+        let q = (p - b.min) / (b.max - b.min) * res;
+        if nearest {
+            let v = q.floor();
+            return self.wrapped_voxel(v.x as i64, v.y as i64, v.z as i64, wrap);
+        }
+        let q = q - Vec3::splat(0.5);
         let base = q.floor();
         let f = q - base;
         let (x, y, z) = (base.x as i64, base.y as i64, base.z as i64);
@@ -153,8 +172,8 @@ impl Grid {
         let plane = |dz: i64| {
             let row = |dy: i64| {
                 lerp(
-                    self.voxel(x, y + dy, z + dz),
-                    self.voxel(x + 1, y + dy, z + dz),
+                    self.wrapped_voxel(x, y + dy, z + dz, wrap),
+                    self.wrapped_voxel(x + 1, y + dy, z + dz, wrap),
                     f.x,
                 )
             };
@@ -186,6 +205,23 @@ mod tests {
         assert_eq!(g.max(), 3.0);
         let rgb = Grid::new([1, 1, 2], 3, unit_box(), vec![0.0, 1.0, 2.0, 2.0, 3.0, 4.0]).unwrap();
         assert_eq!(rgb.eval(Vec3::new(0.5, 0.5, 0.5)), Rgb::new(1.0, 2.0, 3.0));
+    }
+
+    /// Outside the box, voxel indices wrap as a texture's texels do.
+    #[test]
+    fn lookups_wrap_outside_the_box() {
+        let g = Grid::new([2, 1, 1], 1, unit_box(), vec![1.0, 3.0]).unwrap();
+        let at = |x: f32, wrap| g.lookup(Vec3::new(x, 0.5, 0.5), wrap, false).x;
+        // x = 1.25 is the centre of voxel 2: voxel 0 repeated, voxel 1
+        // mirrored or clamped.
+        assert_eq!(at(1.25, WrapMode::Repeat), 1.0);
+        assert_eq!(at(1.25, WrapMode::Mirror), 3.0);
+        assert_eq!(at(1.25, WrapMode::Clamp), 3.0);
+        assert_eq!(at(-0.25, WrapMode::Repeat), 3.0);
+        // Between voxel 1 and the repeated voxel 0.
+        assert_eq!(at(1.0, WrapMode::Repeat), 2.0);
+        let nearest = |x: f32| g.lookup(Vec3::new(x, 0.5, 0.5), WrapMode::Clamp, true).x;
+        assert_eq!((nearest(0.49), nearest(0.51)), (1.0, 3.0));
     }
 
     #[test]

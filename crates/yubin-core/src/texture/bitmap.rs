@@ -50,6 +50,27 @@ pub enum WrapMode {
     Clamp,
 }
 
+impl WrapMode {
+    /// Index `i` of a row of `n` texels (or voxels) wrapped into 0..n.
+    #[inline]
+    pub fn index(self, i: i64, n: u32) -> u32 {
+        let n = n as i64;
+        let w = match self {
+            WrapMode::Repeat => i.rem_euclid(n),
+            WrapMode::Clamp => i.clamp(0, n - 1),
+            WrapMode::Mirror => {
+                let j = i.rem_euclid(2 * n);
+                if j >= n {
+                    2 * n - 1 - j
+                } else {
+                    j
+                }
+            }
+        };
+        w as u32
+    }
+}
+
 /// An image texture.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bitmap {
@@ -96,20 +117,7 @@ impl Bitmap {
 
     #[inline]
     fn wrap_index(&self, i: i64, n: u32) -> u32 {
-        let n = n as i64;
-        let w = match self.wrap {
-            WrapMode::Repeat => i.rem_euclid(n),
-            WrapMode::Clamp => i.clamp(0, n - 1),
-            WrapMode::Mirror => {
-                let j = i.rem_euclid(2 * n);
-                if j >= n {
-                    2 * n - 1 - j
-                } else {
-                    j
-                }
-            }
-        };
-        w as u32
+        self.wrap.index(i, n)
     }
 
     /// The four texels around `uv` and the bilinear weights, or the texel
