@@ -478,3 +478,95 @@ fn normalmap_on_a_mesh_without_uvs_renders() {
     dir.write("scene.xml", scene(body));
     render_succeeds(&dir);
 }
+
+/// The bytes of a `.vol` grid: version, resolution, one channel, values.
+fn vol_bytes(version: u8, res: [i32; 3], values: &[f32]) -> Vec<u8> {
+    let mut b = b"VOL".to_vec();
+    b.push(version);
+    b.extend(1i32.to_le_bytes());
+    for r in res {
+        b.extend(r.to_le_bytes());
+    }
+    b.extend(1i32.to_le_bytes());
+    for v in [0.0f32, 0.0, 0.0, 1.0, 1.0, 1.0] {
+        b.extend(v.to_le_bytes());
+    }
+    for v in values {
+        b.extend(v.to_le_bytes());
+    }
+    b
+}
+
+/// Media errors: a bad `.vol` file (truncated, another version, a negative
+/// density) names the file and the line that reads it; a medium referred
+/// to but never defined and a phase function's `g` outside (−1, 1) name
+/// their line. Exit code 1 and no output image.
+#[test]
+fn media_errors_name_the_file_and_line() {
+    let smoke = |file: &str| {
+        format!(
+            "\t<medium type=\"heterogeneous\" id=\"smoke\">\n\t\t<volume type=\"gridvolume\" name=\"sigma_t\">\n\t\t\t<string name=\"filename\" value=\"{file}\"/>\n\t\t</volume>\n\t</medium>\n\t<shape type=\"sphere\">\n\t\t<bsdf type=\"null\"/>\n\t\t<ref id=\"smoke\" name=\"interior\"/>\n\t</shape>"
+        )
+    };
+    let good = vol_bytes(3, [2, 2, 2], &[0.5; 8]);
+    let files: &[(&str, Vec<u8>, &[&str])] = &[
+        (
+            "truncated.vol",
+            good[..good.len() - 5].to_vec(),
+            &["truncated.vol", "truncated"],
+        ),
+        (
+            "v2.vol",
+            vol_bytes(2, [2, 2, 2], &[0.5; 8]),
+            &["v2.vol", "version 2"],
+        ),
+        (
+            "negative.vol",
+            vol_bytes(3, [2, 2, 2], &[0.5, 0.5, -1.0, 0.5, 0.5, 0.5, 0.5, 0.5]),
+            &["negative.vol", "voxel [0, 1, 0]", "-1"],
+        ),
+    ];
+    for (name, bytes, needles) in files {
+        let dir = TempDir::new(&format!("media_error_{name}"));
+        dir.write(name, bytes);
+        let xml = scene(&smoke(name));
+        let stderr = render_fails(&dir, &xml);
+        let line = line_of(&xml, &format!("value=\"{name}\""));
+        let mut all = vec![format!("scene.xml:{line}")];
+        all.extend(needles.iter().map(|n| n.to_string()));
+        let all: Vec<&str> = all.iter().map(String::as_str).collect();
+        assert_mentions(&stderr, &all);
+    }
+    let cases: &[(&str, &[&str], &str)] = &[
+        (
+            "\t<shape type=\"sphere\">\n\t\t<bsdf type=\"null\"/>\n\t\t<ref id=\"fog\" name=\"interior\"/>\n\t</shape>",
+            &["fog"],
+            "id=\"fog\"",
+        ),
+        (
+            "\t<medium type=\"homogeneous\" id=\"fog\">\n\t\t<phase type=\"hg\">\n\t\t\t<float name=\"g\" value=\"1.2\"/>\n\t\t</phase>\n\t</medium>\n\t<shape type=\"sphere\">\n\t\t<bsdf type=\"null\"/>\n\t\t<ref id=\"fog\" name=\"interior\"/>\n\t</shape>",
+            &["\"g\"", "1.2"],
+            "name=\"g\"",
+        ),
+        (
+            "\t<medium type=\"homogeneous\" id=\"fog\">\n\t\t<float name=\"sigma_t\" value=\"-2\"/>\n\t</medium>\n\t<shape type=\"sphere\">\n\t\t<bsdf type=\"null\"/>\n\t\t<ref id=\"fog\" name=\"interior\"/>\n\t</shape>",
+            &["sigma_t"],
+            "name=\"sigma_t\"",
+        ),
+        (
+            "\t<shape type=\"sphere\">\n\t\t<bsdf type=\"null\"/>\n\t\t<texture type=\"checkerboard\" name=\"interior\"/>\n\t</shape>",
+            &["interior", "medium"],
+            "name=\"interior\"",
+        ),
+    ];
+    for (i, (body, needles, line_needle)) in cases.iter().enumerate() {
+        let dir = TempDir::new(&format!("media_error_{i}"));
+        let xml = scene(body);
+        let stderr = render_fails(&dir, &xml);
+        let line = line_of(&xml, line_needle);
+        let mut all = vec![format!("scene.xml:{line}")];
+        all.extend(needles.iter().map(|n| n.to_string()));
+        let all: Vec<&str> = all.iter().map(String::as_str).collect();
+        assert_mentions(&stderr, &all);
+    }
+}

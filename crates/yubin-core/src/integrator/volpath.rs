@@ -2,8 +2,10 @@
 //! parameters and conventions): paths scatter at surfaces and inside
 //! participating media. Free flights are sampled exactly in homogeneous
 //! media and by delta tracking in heterogeneous ones; chromatic media use
-//! spectral MIS (Miller et al. 2019, "A null-scattering path integral
-//! formulation of light transport"). Next-event estimation runs at
+//! spectral MIS over whole paths (a hero channel per path samples the
+//! distances, the others' densities weigh the result by the balance
+//! heuristic; Miller et al. 2019, "A null-scattering path integral
+//! formulation of light transport"; pbrt-v4). Next-event estimation runs at
 //! surfaces and at scattering points of media with `sample_emitters`;
 //! shadow rays are *generalized*: they cross `null` and `mask` surfaces
 //! (multiplying by what each lets through), change medium at shapes that
@@ -37,6 +39,7 @@ use crate::bsdf::{Bsdf, BsdfContext, BsdfFlags, BsdfModel};
 use crate::interaction::SurfaceInteraction;
 use crate::light::{EmitterSample, LightSelection};
 use crate::math::{Ray, SHADOW_EPSILON};
+use crate::medium::PathWeight;
 use crate::params::{ParamError, Params};
 use crate::phase::PhaseFunction;
 use crate::sampler::SampleStream;
@@ -282,15 +285,21 @@ impl VolPathIntegrator {
     }
 
     /// Russian roulette after a scattering event; false ends the path.
-    fn survives(&self, depth: u32, beta: &mut Rgb, eta2: f32, sampler: &mut SampleStream) -> bool {
+    fn survives(
+        &self,
+        depth: u32,
+        path: &mut PathWeight,
+        eta2: f32,
+        sampler: &mut SampleStream,
+    ) -> bool {
         if depth < self.rr_depth {
             return true;
         }
-        let q = (beta.max_element() * eta2).min(0.95);
+        let q = (path.contribution(Rgb::ONE).max_element() * eta2).min(0.95);
         if sampler.next_1d() >= q {
             return false;
         }
-        *beta /= q;
+        path.beta /= q;
         true
     }
 }
@@ -303,7 +312,14 @@ impl Integrator for VolPathIntegrator {
     fn li(&self, scene: &Scene, camera_ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         let ctx = volpath_context();
         let max_depth = self.max_depth();
-        let (mut l, mut beta, mut eta2) = (Rgb::ZERO, Rgb::ONE, 1.0f32);
+        let (mut l, mut eta2) = (Rgb::ZERO, 1.0f32);
+        // Chromatic media sample distances by one channel per path.
+        let hero = if scene.has_media() {
+            ((sampler.next_1d() * 3.0) as usize).min(2)
+        } else {
+            0
+        };
+        let mut path = PathWeight::new(hero);
         // Media are sampled from the ray's origin: start it at the near
         // clip plane (as Mitsuba does).
         let mut ray = Ray {
@@ -326,10 +342,10 @@ impl Integrator for VolPathIntegrator {
             if let Some(m) = medium {
                 let end = si.as_ref().map_or(ray.t_max, |s| s.t);
                 let m = &scene.media[m as usize];
-                let flight = m.sample_flight(ray.o, ray.d, end, &mut || sampler.next_1d());
-                l += beta * flight.emitted;
-                beta *= flight.weight;
-                if beta.max_element() <= 0.0 {
+                let flight =
+                    m.sample_flight(ray.o, ray.d, end, &mut path, &mut || sampler.next_1d());
+                l += flight.emitted;
+                if path.beta.max_element() <= 0.0 {
                     break;
                 }
                 if flight.scattered {
@@ -341,10 +357,11 @@ impl Integrator for VolPathIntegrator {
                     let wo = -ray.d;
                     let phase = m.phase();
                     if m.sample_emitters() {
-                        l += beta * self.light_from_medium(scene, p, wo, phase, medium, sampler);
+                        let le = self.light_from_medium(scene, p, wo, phase, medium, sampler);
+                        l += path.contribution(le);
                     }
                     let ps = phase.sample(wo, sampler.next_2d());
-                    beta *= ps.weight;
+                    path.beta *= ps.weight;
                     origin = RayOrigin {
                         p,
                         n: Vec3::ZERO,
@@ -353,7 +370,7 @@ impl Integrator for VolPathIntegrator {
                     };
                     crossed = false;
                     ray = Ray::new(p, ps.wi);
-                    if !self.survives(depth, &mut beta, eta2, sampler) {
+                    if !self.survives(depth, &mut path, eta2, sampler) {
                         break;
                     }
                     continue;
@@ -370,24 +387,25 @@ impl Integrator for VolPathIntegrator {
             };
             let Some(si) = si else {
                 if !hidden {
-                    l += beta * environment_radiance(scene, &mis_origin, ray.d);
+                    l += path.contribution(environment_radiance(scene, &mis_origin, ray.d));
                 }
                 break;
             };
             if !hidden {
-                l += beta * surface_emission(scene, &si, &mis_origin);
+                l += path.contribution(surface_emission(scene, &si, &mis_origin));
             }
             let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
             if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) && depth + 1 < max_depth {
-                l += beta * self.light_from_surface(scene, &si, bsdf, wo, medium, sampler);
+                let le = self.light_from_surface(scene, &si, bsdf, wo, medium, sampler);
+                l += path.contribution(le);
             }
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
             let Some(bs) = bsdf.sample(&scene.materials, &ctx, &si, wo, u1, u2) else {
                 break;
             };
-            beta *= bs.weight;
+            path.beta *= bs.weight;
             eta2 *= bs.eta * bs.eta;
             let wi = si.to_world(bs.wi);
             medium = scene.medium_after(&si, wi, medium);
@@ -399,11 +417,11 @@ impl Integrator for VolPathIntegrator {
                 let pdf = (!bs.sampled.intersects(BsdfFlags::DELTA)).then_some(bs.pdf);
                 origin = RayOrigin::surface(&si, pdf);
                 crossed = false;
-                if !self.survives(depth, &mut beta, eta2, sampler) {
+                if !self.survives(depth, &mut path, eta2, sampler) {
                     break;
                 }
             }
-            if beta.max_element() <= 0.0 {
+            if path.beta.max_element() <= 0.0 {
                 break;
             }
         }

@@ -4,10 +4,10 @@
 //! estimate transmittance by ratio tracking (Novák et al. 2014), both
 //! against a majorant grid (a coarse grid of the largest extinction in each
 //! cell, walked by a DDA; pbrt-v4, Mitsuba 3) so that thin and empty parts
-//! cost little. In a chromatic medium a collision is real with probability
-//! mean(σ_t) / μ and null otherwise, each weighted by its ratio, which is
-//! unbiased per channel and keeps every weight below 3 (Miller et al. 2019's
-//! null-scattering formulation).
+//! cost little. A tentative collision is real with the path's hero
+//! channel's probability σ_t,h / μ and null otherwise; in a chromatic
+//! medium the other channels' probabilities enter the path's spectral MIS
+//! (Miller et al. 2019's null-scattering formulation; see `volpath`).
 //!
 //! | parameter         | type             | default   | meaning                                                        |
 //! |-------------------|------------------|-----------|----------------------------------------------------------------|

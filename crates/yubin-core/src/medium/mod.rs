@@ -7,12 +7,16 @@
 //! they travel in. Its extinction σ_t and albedo come from volumes
 //! ([`crate::volume`]); its phase function from [`crate::phase`].
 //!
-//! - [`HomogeneousCoefficients::sample_distance`]: free-flight distances
-//!   in a chromatic homogeneous medium, by spectral MIS (Miller et al.
-//!   2019, "A null-scattering path integral formulation of light
-//!   transport", §5): a channel is picked uniformly and the distance
-//!   sampled from its exponential; the density is the average of the three
-//!   channels' densities, so every channel's estimate stays bounded.
+//! - Chromatic media (σ_t differing between channels) are sampled by
+//!   spectral MIS over whole paths (Miller et al. 2019, "A null-scattering
+//!   path integral formulation of light transport", §5; pbrt-v4's
+//!   `VolPathIntegrator`): a path picks a *hero* channel once, samples
+//!   every free flight by it, and carries, besides its throughput
+//!   f / p_hero, the ratios p_c / p_hero of the densities the other
+//!   channels would have given it; a contribution is divided by their
+//!   mean, so it is weighted by the balance heuristic over channels and
+//!   stays bounded however many times the path scatters.
+//! - [`HomogeneousCoefficients::sample_distance`]: exact free flights.
 //! - [`Grid`]: voxel grids (Mitsuba's `.vol` data), trilinear lookup.
 //! - [`MajorantGrid`]: per-cell majorants of a grid, walked by a DDA.
 //! - [`Pyroclastic`]: seed 003's pyroclastic cloud density.
@@ -130,11 +134,39 @@ pub struct Flight {
     /// The flight ended in a real scattering event at `t` (otherwise it
     /// reached the end of the segment).
     pub scattered: bool,
-    /// The factor for the path's throughput.
-    pub weight: Rgb,
-    /// Radiance the medium emitted along the flight, already weighted (add
-    /// it times the throughput before `weight`).
+    /// Radiance the medium emitted along the flight, as the path's
+    /// estimate (throughput and channel ratios applied).
     pub emitted: Rgb,
+}
+
+/// A path's state through a medium: throughput f / p_hero and the channel
+/// ratios p_c / p_hero (see the module docs), with the hero channel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathWeight {
+    /// Throughput f / p_hero.
+    pub beta: Rgb,
+    /// Density ratios p_c / p_hero (1 in the hero channel).
+    pub ratio: Rgb,
+    /// The channel that samples distances (0, 1 or 2).
+    pub hero: usize,
+}
+
+impl PathWeight {
+    /// A path starting with throughput 1 and hero channel `hero`.
+    pub fn new(hero: usize) -> Self {
+        Self {
+            beta: Rgb::ONE,
+            ratio: Rgb::ONE,
+            hero,
+        }
+    }
+
+    /// The path's estimate of what arrives with weight `x` here: β x /
+    /// mean(ratio).
+    #[inline]
+    pub fn contribution(&self, x: Rgb) -> Rgb {
+        self.beta * x / mean_ratio(self.ratio)
+    }
 }
 
 /// Parameters every medium reads.
@@ -190,18 +222,20 @@ impl Medium {
     }
 
     /// Samples a free flight along `o + t d` (`d` unit length) that ends
-    /// at a scattering event or at `t_max` (which may be infinite), with
-    /// uniform numbers from `next`.
+    /// at a scattering event or at `t_max` (which may be infinite), by the
+    /// path's hero channel, with uniform numbers from `next`; updates the
+    /// path's weight (at a scattering event, the albedo included).
     pub fn sample_flight(
         &self,
         o: Vec3,
         d: Vec3,
         t_max: f32,
+        path: &mut PathWeight,
         next: &mut impl FnMut() -> f32,
     ) -> Flight {
         match self {
-            Medium::Homogeneous(m) => m.sample_flight(o, d, t_max, next),
-            Medium::Heterogeneous(m) => m.sample_flight(o, d, t_max, next),
+            Medium::Homogeneous(m) => m.sample_flight(o, d, t_max, path, next),
+            Medium::Heterogeneous(m) => m.sample_flight(o, d, t_max, path, next),
         }
     }
 
@@ -240,30 +274,35 @@ impl Homogeneous {
         o: Vec3,
         d: Vec3,
         t_max: f32,
+        path: &mut PathWeight,
         next: &mut impl FnMut() -> f32,
     ) -> Flight {
         let coefficients = HomogeneousCoefficients {
             sigma_t: self.sigma_t,
             albedo: Rgb::ONE,
         };
-        let s = coefficients.sample_distance(t_max, next(), next());
+        let s = coefficients.sample_distance(t_max, path.hero, next());
+        path.ratio *= s.ratio;
         if !s.scattered {
+            path.beta *= s.weight;
             return Flight {
                 t: t_max,
                 scattered: false,
-                weight: s.weight,
                 emitted: Rgb::ZERO,
             };
         }
-        // `s.weight` is T σ_t / p here: the collision estimates both what
-        // is scattered (× albedo) and what is emitted (× (1 − albedo) L_e).
+        // `s.weight` is T σ_t / p_hero here: the collision estimates both
+        // what is scattered (× albedo) and what is emitted (× (1 − albedo)
+        // L_e).
         let p = o + d * s.t;
         let albedo = self.common.albedo.eval(p);
+        path.beta *= s.weight;
+        let emitted = path.contribution(self.common.emission(p, albedo));
+        path.beta *= albedo;
         Flight {
             t: s.t,
             scattered: true,
-            weight: s.weight * albedo,
-            emitted: s.weight * self.common.emission(p, albedo),
+            emitted,
         }
     }
 }
@@ -276,17 +315,19 @@ impl Heterogeneous {
     }
 
     /// Delta tracking: tentative collisions at the majorant's rate, each
-    /// real with probability mean(σ_t) / μ.
+    /// real with the hero channel's probability σ_t,h / μ, else null; the
+    /// majorant's transmittance is the same in every channel and cancels.
     fn sample_flight(
         &self,
         o: Vec3,
         d: Vec3,
         t_max: f32,
+        path: &mut PathWeight,
         next: &mut impl FnMut() -> f32,
     ) -> Flight {
-        let mut weight = Rgb::ONE;
         let mut emitted = Rgb::ZERO;
         let mut hit = None;
+        let hero = path.hero;
         self.majorants.walk(o, d, t_max, |t0, t1, mu| {
             if mu <= 0.0 {
                 return true;
@@ -299,27 +340,26 @@ impl Heterogeneous {
                 }
                 let p = o + d * t;
                 let sigma_t = self.sigma_t_at(p);
-                let albedo = if self.common.radiance.is_some() {
+                let albedo = self.common.radiance.is_some().then(|| {
                     let albedo = self.common.albedo.eval(p);
-                    emitted += weight * sigma_t * self.common.emission(p, albedo) / mu;
-                    Some(albedo)
-                } else {
-                    None
-                };
-                let p_real = (sigma_t.element_sum() / (3.0 * mu)).min(1.0);
-                if next() < p_real {
+                    emitted += path.contribution(sigma_t * self.common.emission(p, albedo) / mu);
+                    albedo
+                });
+                if next() * mu < sigma_t[hero] {
                     let albedo = albedo.unwrap_or_else(|| self.common.albedo.eval(p));
-                    weight *= sigma_t * albedo / (mu * p_real);
+                    path.beta *= sigma_t * albedo / sigma_t[hero];
+                    path.ratio *= sigma_t / sigma_t[hero];
                     hit = Some(t);
                     return false;
                 }
-                weight *= (Rgb::splat(mu) - sigma_t).max(Rgb::ZERO) / (mu * (1.0 - p_real));
+                let sigma_n = (Rgb::splat(mu) - sigma_t).max(Rgb::ZERO);
+                path.beta *= sigma_n / sigma_n[hero];
+                path.ratio *= sigma_n / sigma_n[hero];
             }
         });
         Flight {
             t: hit.unwrap_or(t_max),
             scattered: hit.is_some(),
-            weight,
             emitted,
         }
     }
@@ -400,8 +440,8 @@ pub struct HomogeneousCoefficients {
     pub albedo: Rgb,
 }
 
-/// Where a free flight ended, and the factor it multiplies a path's
-/// throughput by.
+/// Where a free flight sampled by a hero channel ended, and what it
+/// multiplies a path's throughput and channel ratios by.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DistanceSample {
     /// The distance travelled.
@@ -409,8 +449,12 @@ pub struct DistanceSample {
     /// True when the flight ended inside the medium (a scattering event),
     /// false when it reached `t_max`.
     pub scattered: bool,
-    /// Inside: T(t) σ_s / p(t); at `t_max`: T(t_max) / P(t ≥ t_max).
+    /// f / p_hero: inside T(t) σ_s / (T_h(t) σ_t,h); at `t_max`
+    /// T(t_max) / T_h(t_max).
     pub weight: Rgb,
+    /// p_c / p_hero per channel: inside T(t) σ_t / (T_h(t) σ_t,h); at
+    /// `t_max` T(t_max) / T_h(t_max).
+    pub ratio: Rgb,
 }
 
 /// e^(−σ t) per channel, 1 where σ is 0 (also over an infinite `t`).
@@ -427,41 +471,52 @@ impl HomogeneousCoefficients {
     }
 
     /// Samples how far a ray goes before it scatters, up to `t_max`
-    /// (which may be infinite), from a uniform channel choice `u_channel`
-    /// and a uniform `u`.
-    pub fn sample_distance(&self, t_max: f32, u_channel: f32, u: f32) -> DistanceSample {
-        let channel = ((u_channel * 3.0) as usize).min(2);
-        let sigma = self.sigma_t[channel];
+    /// (which may be infinite), by the exponential of channel `hero`, from
+    /// a uniform `u`.
+    pub fn sample_distance(&self, t_max: f32, hero: usize, u: f32) -> DistanceSample {
+        let sigma = self.sigma_t[hero];
         let t = if sigma > 0.0 {
             -(1.0 - u).ln() / sigma
         } else {
             f32::INFINITY
         };
         if t < t_max {
-            let tr = self.transmittance(t);
-            // The mixture's density: the average of the channels'.
-            let pdf = (self.sigma_t * tr).element_sum() / 3.0;
+            let density = self.sigma_t * self.transmittance(t);
+            let ratio = density / density[hero];
             DistanceSample {
                 t,
                 scattered: true,
-                weight: tr * self.sigma_t * self.albedo / pdf,
+                weight: ratio * self.albedo,
+                ratio,
             }
         } else {
             let tr = self.transmittance(t_max);
-            let p_pass = tr.element_sum() / 3.0;
+            let ratio = if tr[hero] > 0.0 {
+                tr / tr[hero]
+            } else {
+                Rgb::ZERO
+            };
             DistanceSample {
                 t: t_max,
                 scattered: false,
-                weight: if p_pass > 0.0 { tr / p_pass } else { Rgb::ZERO },
+                weight: ratio,
+                ratio,
             }
         }
     }
 
-    /// The density of [`HomogeneousCoefficients::sample_distance`] ending
-    /// at `t` inside the medium.
-    pub fn pdf_distance(&self, t: f32) -> f32 {
-        (self.sigma_t * self.transmittance(t)).element_sum() / 3.0
+    /// The density of a flight sampled by channel `channel` ending at `t`
+    /// inside the medium: σ_t,c e^(−σ_t,c t).
+    pub fn pdf_distance(&self, t: f32, channel: usize) -> f32 {
+        (self.sigma_t * self.transmittance(t))[channel]
     }
+}
+
+/// The mean of a path's channel ratios: what its contributions are divided
+/// by (the balance heuristic over channels).
+#[inline]
+pub fn mean_ratio(r: Rgb) -> f32 {
+    r.element_sum() / 3.0
 }
 
 #[cfg(test)]
@@ -477,56 +532,58 @@ mod tests {
         }
     }
 
-    /// Free-flight distances in a chromatic medium follow the mixture
-    /// density: 40 bins over [0, t_max] and one for passing through,
-    /// against the analytic bin masses.
+    /// Free-flight distances sampled by each hero channel follow that
+    /// channel's exponential: 40 bins over [0, t_max] and one for passing
+    /// through, against the analytic bin masses.
     #[test]
     fn chi2_free_flight_distances() {
         let m = chromatic();
         let t_max = 2.0;
         let bins = 40;
-        let n = 400_000;
-        let mut counts = vec![0u64; bins + 1];
-        let mut rng = Pcg32::new(3, 9);
-        for _ in 0..n {
-            let s = m.sample_distance(t_max, rng.next_f32(), rng.next_f32());
-            let bin = if s.scattered {
-                ((s.t / t_max * bins as f32) as usize).min(bins - 1)
-            } else {
-                bins
-            };
-            counts[bin] += 1;
-        }
-        let cdf = |t: f32| 1.0 - m.transmittance(t).element_sum() as f64 / 3.0;
-        let mut expected: Vec<f64> = (0..bins)
-            .map(|k| {
-                let (a, b) = (
-                    t_max * k as f32 / bins as f32,
-                    t_max * (k + 1) as f32 / bins as f32,
+        let n = 200_000;
+        for hero in 0..3 {
+            let mut counts = vec![0u64; bins + 1];
+            let mut rng = Pcg32::new(3, 9 + hero as u64);
+            for _ in 0..n {
+                let s = m.sample_distance(t_max, hero, rng.next_f32());
+                let bin = if s.scattered {
+                    ((s.t / t_max * bins as f32) as usize).min(bins - 1)
+                } else {
+                    bins
+                };
+                counts[bin] += 1;
+            }
+            let cdf = |t: f32| 1.0 - m.transmittance(t)[hero] as f64;
+            let mut expected: Vec<f64> = (0..bins)
+                .map(|k| {
+                    let (a, b) = (
+                        t_max * k as f32 / bins as f32,
+                        t_max * (k + 1) as f32 / bins as f32,
+                    );
+                    (cdf(b) - cdf(a)) * n as f64
+                })
+                .collect();
+            expected.push((1.0 - cdf(t_max)) * n as f64);
+            chi2_discrete(&counts, &expected, 0.01).unwrap();
+            // pdf_distance is the CDF's derivative.
+            for t in [0.01, 0.3, 1.1, 1.9] {
+                let h = 1e-3;
+                let slope = (cdf(t + h) - cdf(t - h)) / (2.0 * h as f64);
+                let pdf = m.pdf_distance(t, hero) as f64;
+                assert!(
+                    (pdf / slope - 1.0).abs() < 1e-3,
+                    "hero {hero}, t {t}: pdf {pdf} vs slope {slope}"
                 );
-                (cdf(b) - cdf(a)) * n as f64
-            })
-            .collect();
-        expected.push((1.0 - cdf(t_max)) * n as f64);
-        chi2_discrete(&counts, &expected, 0.01).unwrap();
-        // pdf_distance is the CDF's derivative (what MIS will weigh with).
-        for t in [0.01, 0.3, 1.1, 1.9] {
-            let h = 1e-3;
-            let slope = (cdf(t + h) - cdf(t - h)) / (2.0 * h as f64);
-            let pdf = m.pdf_distance(t) as f64;
-            assert!(
-                (pdf / slope - 1.0).abs() < 1e-3,
-                "t {t}: pdf {pdf} vs slope {slope}"
-            );
+            }
         }
     }
 
-    /// The weights are bounded and make unbiased estimates per channel:
-    /// passing through
-    /// estimates T(t_max); a scattering event, weighted by 1/σ_s,
-    /// estimates ∫₀^t_max T(t) dt.
+    /// With the hero channel picked uniformly, weight / mean(ratio) is
+    /// bounded and unbiased per channel: passing through estimates
+    /// T(t_max); a scattering event, weighted by 1/σ_s, estimates
+    /// ∫₀^t_max T(t) dt.
     #[test]
-    fn free_flight_weights_are_unbiased_per_channel() {
+    fn spectral_mis_weights_are_unbiased_per_channel() {
         let m = chromatic();
         let t_max = 1.3;
         let n = 400_000;
@@ -534,27 +591,25 @@ mod tests {
         let (mut pass, mut pass2, mut scat, mut scat2) =
             (Rgb::ZERO, Rgb::ZERO, Rgb::ZERO, Rgb::ZERO);
         for _ in 0..n {
-            let s = m.sample_distance(t_max, rng.next_f32(), rng.next_f32());
-            // Spectral MIS keeps every channel's weight bounded: at most
-            // 3 × albedo inside, 3 passing through (a single channel's
-            // density would make the others' weights unbounded).
+            let hero = ((rng.next_f32() * 3.0) as usize).min(2);
+            let s = m.sample_distance(t_max, hero, rng.next_f32());
+            let w = s.weight / mean_ratio(s.ratio);
+            // The balance heuristic over channels bounds every channel's
+            // weight: 3 × albedo inside, 3 passing through (the hero's
+            // density alone would leave the others' unbounded).
             let bound = if s.scattered {
                 3.0 * m.albedo
             } else {
                 Rgb::splat(3.0)
             };
-            assert!(
-                s.weight.cmple(bound * 1.0001).all(),
-                "weight {} above {bound}",
-                s.weight
-            );
+            assert!(w.cmple(bound * 1.0001).all(), "weight {w} above {bound}");
             if s.scattered {
-                let w = s.weight / (m.sigma_t * m.albedo);
+                let w = w / (m.sigma_t * m.albedo);
                 scat += w;
                 scat2 += w * w;
             } else {
-                pass += s.weight;
-                pass2 += s.weight * s.weight;
+                pass += w;
+                pass2 += w * w;
             }
         }
         let nf = n as f32;
@@ -574,5 +629,71 @@ mod tests {
         check(pass, pass2, m.transmittance(t_max), "passing");
         let integral = (Rgb::ONE - m.transmittance(t_max)) / m.sigma_t;
         check(scat, scat2, integral, "scattering");
+    }
+
+    /// Delta tracking in a chromatic heterogeneous medium under a loose
+    /// majorant, hero channel picked per flight: what passes estimates
+    /// T(L) per channel, scattering events (divided by σ_s) ∫₀^L T; the
+    /// same medium's ratio-tracking transmittance is T(L) too.
+    #[test]
+    fn delta_tracking_is_unbiased_per_channel() {
+        let sigma = Rgb::new(0.4, 1.0, 2.5);
+        let albedo = Rgb::new(0.9, 0.5, 0.7);
+        let medium = Medium::Heterogeneous(Heterogeneous {
+            sigma_t: Volume::Const(sigma),
+            majorants: Majorants::Uniform {
+                value: 4.0,
+                extent: None,
+            },
+            common: MediumCommon {
+                albedo: Volume::Const(albedo),
+                scale: 1.0,
+                radiance: None,
+                phase: PhaseFunction::Isotropic,
+                sample_emitters: true,
+            },
+        });
+        let length = 1.2;
+        let n = 300_000;
+        let mut rng = Pcg32::new(11, 4);
+        let mut next = || rng.next_f32();
+        let (mut pass, mut scat, mut tr) = (Rgb::ZERO, Rgb::ZERO, Rgb::ZERO);
+        let (mut pass2, mut scat2, mut tr2) = (Rgb::ZERO, Rgb::ZERO, Rgb::ZERO);
+        for i in 0..n {
+            let mut path = PathWeight::new(i % 3);
+            let f = medium.sample_flight(Vec3::ZERO, Vec3::X, length, &mut path, &mut next);
+            let w = path.contribution(Rgb::ONE);
+            if f.scattered {
+                let w = w / (sigma * albedo);
+                scat += w;
+                scat2 += w * w;
+            } else {
+                pass += w;
+                pass2 += w * w;
+            }
+            let t = medium.transmittance(Vec3::ZERO, Vec3::X, length, &mut next);
+            tr += t;
+            tr2 += t * t;
+        }
+        let nf = n as f32;
+        let want_t = (-sigma * length).exp();
+        let want_int = (Rgb::ONE - want_t) / sigma;
+        for (sum, sum2, want, what) in [
+            (pass, pass2, want_t, "passing"),
+            (scat, scat2, want_int, "scattering"),
+            (tr, tr2, want_t, "ratio tracking"),
+        ] {
+            let mean = sum / nf;
+            let se = ((sum2 / nf - mean * mean) / nf).max(Rgb::ZERO).powf(0.5);
+            for c in 0..3 {
+                assert!(
+                    (mean[c] - want[c]).abs() < 4.0 * se[c] + 1e-4,
+                    "{what}, channel {c}: {} vs {} (± {})",
+                    mean[c],
+                    want[c],
+                    se[c]
+                );
+            }
+        }
     }
 }
