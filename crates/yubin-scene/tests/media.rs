@@ -213,7 +213,7 @@ fn emissive_slab_glows_by_its_optical_depth() {
     for kind in ["homogeneous", "heterogeneous"] {
         let xml = scene(
             r#"<integrator type="volpath"/>"#,
-            &medium(kind).replace("lookat", "lookat"),
+            &medium(kind),
         )
         .replace(r#"origin="0, 0.5, 4""#, r#"origin="0, 0, 4""#)
         .replace(
