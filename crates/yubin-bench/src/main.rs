@@ -11,6 +11,7 @@
 //! - [`manylights`]: uniform, power and light-BVH light selection on
 //!   10,000 emissive triangles (equal-time error).
 //! - [`samplers`]: each sampler's cost per sample, and a render with each.
+//! - [`smoke`]: writes the procedural smoke plume grid of `scenes/smoke.xml`.
 //! - [`envmap`]: time to build a 4096 × 2048 environment map's sampling
 //!   distribution.
 //! - [`rays`]: ray-traversal throughput, build time and memory of yubin's
@@ -23,6 +24,7 @@ mod envmap;
 mod manylights;
 mod rays;
 mod samplers;
+mod smoke;
 
 use anyhow::{bail, Result};
 
@@ -36,6 +38,7 @@ const USAGE: &str = "usage:
   yubin-bench manylights [--spp N] [--ref-spp N] [--res N]
   yubin-bench envmap [--reps N]
   yubin-bench samplers [--reps N]
+  yubin-bench smoke-vol PATH [--res X,Y,Z]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
                    [--min-passes N] [--max-passes N] [--out FILE.md]
@@ -54,6 +57,7 @@ fn main() -> Result<()> {
         Some("manylights") => manylights::run(&args[1..]),
         Some("envmap") => envmap::run(&args[1..]),
         Some("samplers") => samplers::run(&args[1..]),
+        Some("smoke-vol") => smoke::run(&args[1..]),
         Some("help") => {
             println!("{USAGE}");
             Ok(())

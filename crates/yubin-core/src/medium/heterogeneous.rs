@@ -16,7 +16,7 @@
 //! | `scale`           | float            | 1         | multiplies `sigma_t`                                           |
 //! | `radiance`        | float/rgb/volume | none      | emitted radiance per unit σ_a (an emissive medium; yubin)      |
 //! | `sample_emitters` | boolean          | true      | next-event estimation at scattering points                     |
-//! | `majorant_resolution_factor` | integer | 8    | majorant grid cells are this many voxels of a `gridvolume` `sigma_t` wide; 0: one majorant for the whole volume |
+//! | `majorant_resolution_factor` | integer | 4    | majorant grid cells are this many voxels of a `gridvolume` `sigma_t` wide; 0: one majorant for the whole volume |
 //! | `majorant_factor` | float            | 1.01      | accepted (the majorants here are exact bounds)                 |
 //! | `has_spectral_extinction` | boolean  | true      | accepted: extinction is always per channel here                |
 //! | (child)           | phase            | isotropic | the phase function                                             |
@@ -49,7 +49,7 @@ pub(super) fn from_params(p: &mut dyn Params) -> Result<Medium, ParamError> {
             return Err(p.param_error("sigma_t", &format!("must be 0 or more, not {v}")));
         }
     }
-    let factor = p.integer_or("majorant_resolution_factor", 8)?;
+    let factor = p.integer_or("majorant_resolution_factor", 4)?;
     let factor = u32::try_from(factor).map_err(|_| {
         p.param_error(
             "majorant_resolution_factor",
