@@ -7,7 +7,7 @@ from PIL import Image, ImageDraw
 src, dst, names = sys.argv[1], sys.argv[2], sys.argv[3:]
 tiles = [Image.open(f"{src}/{n}.png").convert("RGB") for n in names]
 w, h = tiles[0].size
-cols, label = 4, 22
+cols, label = min(4, len(tiles)), 22
 rows = (len(tiles) + cols - 1) // cols
 sheet = Image.new("RGB", (cols * w, rows * (h + label)), "white")
 draw = ImageDraw.Draw(sheet)

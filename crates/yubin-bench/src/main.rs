@@ -11,6 +11,8 @@
 //! - [`manylights`]: uniform, power and light-BVH light selection on
 //!   10,000 emissive triangles (equal-time error).
 //! - [`samplers`]: each sampler's cost per sample, and a render with each.
+//! - [`media`]: a homogeneous and a heterogeneous medium against Mitsuba 3
+//!   (time to equal error), and the majorant grid's effect.
 //! - [`smoke`]: writes the procedural smoke plume grid of `scenes/smoke.xml`.
 //! - [`envmap`]: time to build a 4096 × 2048 environment map's sampling
 //!   distribution.
@@ -22,6 +24,7 @@ mod alloc;
 mod cornell;
 mod envmap;
 mod manylights;
+mod media;
 mod rays;
 mod samplers;
 mod smoke;
@@ -39,6 +42,7 @@ const USAGE: &str = "usage:
   yubin-bench envmap [--reps N]
   yubin-bench samplers [--reps N]
   yubin-bench smoke-vol PATH [--res X,Y,Z]
+  yubin-bench media [--spp N] [--ref-spp N] [--reps N]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
                    [--min-passes N] [--max-passes N] [--out FILE.md]
@@ -58,6 +62,7 @@ fn main() -> Result<()> {
         Some("envmap") => envmap::run(&args[1..]),
         Some("samplers") => samplers::run(&args[1..]),
         Some("smoke-vol") => smoke::run(&args[1..]),
+        Some("media") => media::run(&args[1..]),
         Some("help") => {
             println!("{USAGE}");
             Ok(())

@@ -120,6 +120,11 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
                 child.used.set(true);
                 b.emitter(obj)?;
             }
+            // Built (and checked) even when nothing refers to it.
+            Category::Medium if obj.id.is_some() => {
+                child.used.set(true);
+                b.medium(obj)?;
+            }
             // Declared to be referenced: built where a `<ref>` uses it
             // (Mitsuba's docs scenes declare a sampler for the sensor so).
             Category::Texture
@@ -127,7 +132,6 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
             | Category::Sampler
             | Category::Film
             | Category::Rfilter
-            | Category::Medium
             | Category::Phase
             | Category::Volume
                 if obj.id.is_some() =>

@@ -211,15 +211,12 @@ fn emissive_slab_glows_by_its_optical_depth() {
         )
     };
     for kind in ["homogeneous", "heterogeneous"] {
-        let xml = scene(
-            r#"<integrator type="volpath"/>"#,
-            &medium(kind),
-        )
-        .replace(r#"origin="0, 0.5, 4""#, r#"origin="0, 0, 4""#)
-        .replace(
-            r#"<float name="fov" value="50"/>"#,
-            r#"<float name="fov" value="1"/>"#,
-        );
+        let xml = scene(r#"<integrator type="volpath"/>"#, &medium(kind))
+            .replace(r#"origin="0, 0.5, 4""#, r#"origin="0, 0, 4""#)
+            .replace(
+                r#"<float name="fov" value="50"/>"#,
+                r#"<float name="fov" value="1"/>"#,
+            );
         let (mean, var) = render_statistics(&xml, 16, 4);
         for c in 0..3 {
             let want = le[c] * (1.0 - (-sigma[c] * d).exp());

@@ -39,7 +39,7 @@ use crate::bsdf::{Bsdf, BsdfContext, BsdfFlags, BsdfModel};
 use crate::interaction::SurfaceInteraction;
 use crate::light::{EmitterSample, LightSelection};
 use crate::math::{Ray, SHADOW_EPSILON};
-use crate::medium::PathWeight;
+use crate::medium::{Medium, PathWeight};
 use crate::params::{ParamError, Params};
 use crate::phase::PhaseFunction;
 use crate::sampler::SampleStream;
@@ -338,12 +338,31 @@ impl Integrator for VolPathIntegrator {
         // Real scattering events so far.
         let mut depth: u32 = 0;
         while depth < max_depth {
-            let si = scene.intersect(&ray);
-            if let Some(m) = medium {
-                let end = si.as_ref().map_or(ray.t_max, |s| s.t);
+            let (si, flight) = match medium.map(|m| &scene.media[m as usize]) {
+                None => (scene.intersect(&ray), None),
+                // The distance is drawn first, and surfaces are looked for
+                // only that far: a scattering event computes no hit.
+                Some(Medium::Homogeneous(h)) => {
+                    let t = h.free_distance(&path, sampler.next_1d());
+                    let si = scene.intersect(&Ray {
+                        t_max: ray.t_max.min(t),
+                        ..ray
+                    });
+                    let end = si.as_ref().map_or(ray.t_max, |s| s.t);
+                    (si, Some(h.end_flight(ray.o, ray.d, t, end, &mut path)))
+                }
+                Some(m) => {
+                    let si = scene.intersect(&ray);
+                    let end = si.as_ref().map_or(ray.t_max, |s| s.t);
+                    let mut next = || sampler.next_1d();
+                    (
+                        si,
+                        Some(m.sample_flight(ray.o, ray.d, end, &mut path, &mut next)),
+                    )
+                }
+            };
+            if let (Some(flight), Some(m)) = (flight, medium) {
                 let m = &scene.media[m as usize];
-                let flight =
-                    m.sample_flight(ray.o, ray.d, end, &mut path, &mut || sampler.next_1d());
                 l += flight.emitted;
                 if path.beta.max_element() <= 0.0 {
                     break;

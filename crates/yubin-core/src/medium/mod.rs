@@ -269,6 +269,21 @@ impl MediumCommon {
 }
 
 impl Homogeneous {
+    fn coefficients(&self) -> HomogeneousCoefficients {
+        HomogeneousCoefficients {
+            sigma_t: self.sigma_t,
+            albedo: Rgb::ONE,
+        }
+    }
+
+    /// The distance a flight by the path's hero channel would go, from a
+    /// uniform `u`: an integrator may look for surfaces only that far
+    /// (then [`Homogeneous::end_flight`]).
+    #[inline]
+    pub fn free_distance(&self, path: &PathWeight, u: f32) -> f32 {
+        self.coefficients().free_distance(path.hero, u)
+    }
+
     fn sample_flight(
         &self,
         o: Vec3,
@@ -277,11 +292,22 @@ impl Homogeneous {
         path: &mut PathWeight,
         next: &mut impl FnMut() -> f32,
     ) -> Flight {
-        let coefficients = HomogeneousCoefficients {
-            sigma_t: self.sigma_t,
-            albedo: Rgb::ONE,
-        };
-        let s = coefficients.sample_distance(t_max, path.hero, next());
+        let t = self.free_distance(path, next());
+        self.end_flight(o, d, t, t_max, path)
+    }
+
+    /// Ends a flight along `o + t d` whose distance `t` was drawn by
+    /// [`Homogeneous::free_distance`] and whose segment ends at `t_max`:
+    /// a scattering event when `t < t_max`; updates the path's weight.
+    pub fn end_flight(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t: f32,
+        t_max: f32,
+        path: &mut PathWeight,
+    ) -> Flight {
+        let s = self.coefficients().flight_outcome(t, t_max, path.hero);
         path.ratio *= s.ratio;
         if !s.scattered {
             path.beta *= s.weight;
@@ -474,12 +500,25 @@ impl HomogeneousCoefficients {
     /// (which may be infinite), by the exponential of channel `hero`, from
     /// a uniform `u`.
     pub fn sample_distance(&self, t_max: f32, hero: usize, u: f32) -> DistanceSample {
+        self.flight_outcome(self.free_distance(hero, u), t_max, hero)
+    }
+
+    /// A free-flight distance by the exponential of channel `hero`
+    /// (infinite where it has no extinction), from a uniform `u`.
+    #[inline]
+    pub fn free_distance(&self, hero: usize, u: f32) -> f32 {
         let sigma = self.sigma_t[hero];
-        let t = if sigma > 0.0 {
+        if sigma > 0.0 {
             -(1.0 - u).ln() / sigma
         } else {
             f32::INFINITY
-        };
+        }
+    }
+
+    /// [`HomogeneousCoefficients::sample_distance`] for a distance `t`
+    /// already drawn by [`HomogeneousCoefficients::free_distance`]: a
+    /// scattering event when `t < t_max`.
+    pub fn flight_outcome(&self, t: f32, t_max: f32, hero: usize) -> DistanceSample {
         if t < t_max {
             let density = self.sigma_t * self.transmittance(t);
             let ratio = density / density[hero];
