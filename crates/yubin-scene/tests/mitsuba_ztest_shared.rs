@@ -18,6 +18,21 @@ fn z_test_scene(test: &str, scene: &str, reference: &str) {
 /// (3 % by default; more, or no check, only where the reference's own
 /// noise hides a smaller bias, said at the call).
 fn z_test_scene_with(test: &str, scene: &str, reference: &str, brighter: Option<f32>) {
+    z_test_scene_defines(test, scene, reference, brighter, &[]);
+}
+
+/// [`z_test_scene_with`] with `-D name=value` defines.
+fn z_test_scene_defines(
+    test: &str,
+    scene: &str,
+    reference: &str,
+    brighter: Option<f32>,
+    defines: &[(&str, &str)],
+) {
+    let defines: Vec<(String, String)> = defines
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
     let Some(shared) = shared_or_skip(test) else {
         return;
     };
@@ -31,7 +46,7 @@ fn z_test_scene_with(test: &str, scene: &str, reference: &str, brighter: Option<
     .unwrap();
     let pixels = ref_mean.width * ref_mean.height;
     let spp = (2_000_000 / pixels) as u32;
-    let out = render_file(&scene_path, &[], spp, 0);
+    let out = render_file(&scene_path, &defines, spp, 0);
     let mean = out.image.select_channels(0..3);
     assert_eq!(
         (mean.width as usize, mean.height as usize),
@@ -230,4 +245,25 @@ fn ztest_participating_media_surf_area_light_volpath_shared() {
         "participating_media/refs/test_surf_area_light_ref_rgb",
         Some(1.08),
     );
+}
+
+/// `volpathmis` (whole-path MIS) renders the same images as Mitsuba's
+/// `volpath` references.
+#[test]
+fn ztest_participating_media_volpathmis_shared() {
+    for (name, brighter) in [
+        ("test_hetero_sigmat", 1.05),
+        ("test_homo_area_light", 1.08),
+        ("test_homo_dielectric_envmap", 1.03),
+        ("test_homo_null_envmap", 1.08),
+        ("test_surf_area_light", 1.08),
+    ] {
+        z_test_scene_defines(
+            "ztest_participating_media_volpathmis_shared",
+            &format!("participating_media/{name}_volpath.xml"),
+            &format!("participating_media/refs/{name}_ref_rgb"),
+            Some(brighter),
+            &[("integrator", "volpathmis")],
+        );
+    }
 }

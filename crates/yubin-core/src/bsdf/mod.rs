@@ -276,19 +276,28 @@ impl Bsdf {
     /// direction is the incident one (`volpath` crosses slabs so, as
     /// Mitsuba's does).
     pub fn null_transmission(&self, m: &Materials, si: &SurfaceInteraction, slabs: bool) -> Rgb {
+        self.null_crossing(m, si, slabs).1
+    }
+
+    /// [`Bsdf::null_transmission`] with the probability that
+    /// [`BsdfModel::sample`] picks the null lobes (what `volpathmis`
+    /// weighs shadow rays by): (probability, transmission).
+    pub fn null_crossing(&self, m: &Materials, si: &SurfaceInteraction, slabs: bool) -> (f32, Rgb) {
+        let nested = |i: u32| m.bsdfs[i as usize].null_crossing(m, si, slabs);
         match self {
-            Bsdf::Null(_) => Rgb::ONE,
+            Bsdf::Null(_) => (1.0, Rgb::ONE),
             Bsdf::Mask(b) => {
                 let alpha = b.alpha(m, si);
-                Rgb::splat(1.0 - alpha)
-                    + alpha * m.bsdfs[b.nested as usize].null_transmission(m, si, slabs)
+                let (p, t) = nested(b.nested);
+                (
+                    (1.0 - alpha) + alpha * p,
+                    Rgb::splat(1.0 - alpha) + alpha * t,
+                )
             }
             Bsdf::BlendBsdf(b) => {
                 let w = b.weight.eval_1(m, si).clamp(0.0, 1.0);
-                let [x, y] = b
-                    .bsdfs
-                    .map(|i| m.bsdfs[i as usize].null_transmission(m, si, slabs));
-                x * (1.0 - w) + y * w
+                let [(pa, ta), (pb, tb)] = b.bsdfs.map(nested);
+                (pa * (1.0 - w) + pb * w, ta * (1.0 - w) + tb * w)
             }
             Bsdf::TwoSided(t) => {
                 let side = if si.wo.dot(si.n) >= 0.0 {
@@ -296,10 +305,10 @@ impl Bsdf {
                 } else {
                     t.back
                 };
-                m.bsdfs[side as usize].null_transmission(m, si, slabs)
+                nested(side)
             }
-            Bsdf::ThinDielectric(t) if slabs => t.null_transmission(m, si),
-            _ => Rgb::ZERO,
+            Bsdf::ThinDielectric(t) if slabs => t.null_crossing(m, si),
+            _ => (0.0, Rgb::ZERO),
         }
     }
 

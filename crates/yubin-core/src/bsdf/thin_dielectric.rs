@@ -60,10 +60,11 @@ impl ThinDielectric {
         Dielectric::from_params(p).map(Self)
     }
 
-    /// What passes straight through along the ray at `si`: (1 − R′) T.
-    pub fn null_transmission(&self, m: &Materials, si: &SurfaceInteraction) -> Rgb {
-        let cos_theta = si.to_local(si.wo).z;
-        (1.0 - self.reflectance(cos_theta)) * self.0.specular_transmittance.eval(m, si)
+    /// The probability of transmission along the ray at `si`, 1 − R′,
+    /// and what passes: (1 − R′) T.
+    pub fn null_crossing(&self, m: &Materials, si: &SurfaceInteraction) -> (f32, Rgb) {
+        let p = 1.0 - self.reflectance(si.to_local(si.wo).z);
+        (p, p * self.0.specular_transmittance.eval(m, si))
     }
 
     /// The slab's reflectance for a direction with cosine `cos_theta`.

@@ -42,7 +42,7 @@ pub const PLUGINS: &[(&str, IntegratorFromParams)] = &[
         Ok(Box::new(VolPathIntegrator::from_params(p)?))
     }),
     ("volpathmis", |p| {
-        Ok(Box::new(VolPathIntegrator::from_params(p)?))
+        Ok(Box::new(VolPathIntegrator::from_params_mis(p)?))
     }),
 ];
 
@@ -203,6 +203,29 @@ impl RayOrigin {
 /// Radiance from emitters at infinity along an escaped ray `d`, MIS-weighted
 /// against the BSDF sample that produced it.
 pub(crate) fn environment_radiance(scene: &Scene, origin: &RayOrigin, d: Vec3) -> Rgb {
+    environment_emission(scene, origin, d, |le, light_pdf| {
+        power_weighted(origin, le, light_pdf)
+    })
+}
+
+/// `le` weighted by the power heuristic between the origin's BSDF density
+/// and the light density `light_pdf` (unweighted without either).
+fn power_weighted(origin: &RayOrigin, le: Rgb, light_pdf: Option<f32>) -> Rgb {
+    match (origin.bsdf_pdf, light_pdf) {
+        (Some(pdf), Some(light_pdf)) => le * power_heuristic(pdf, light_pdf),
+        _ => le,
+    }
+}
+
+/// The sum over emitters at infinity of `weigh(radiance, light density)`
+/// along an escaped ray `d`: the density with which light sampling from
+/// `origin` gives that direction (`None` when the origin asks for no MIS).
+pub(crate) fn environment_emission(
+    scene: &Scene,
+    origin: &RayOrigin,
+    d: Vec3,
+    mut weigh: impl FnMut(Rgb, Option<f32>) -> Rgb,
+) -> Rgb {
     use crate::light::{EmitterModel, LightChoice};
     let ctx = scene.emitter_context();
     let mut l = Rgb::ZERO;
@@ -212,18 +235,15 @@ pub(crate) fn environment_radiance(scene: &Scene, origin: &RayOrigin, d: Vec3) -
         }
         let emitter = &scene.emitters[e as usize];
         let le = emitter.environment_radiance(&ctx, d);
-        l += match origin.bsdf_pdf {
-            None => le,
-            Some(pdf) => {
-                let choice = LightChoice {
-                    emitter: e,
-                    prim: LightChoice::WHOLE,
-                };
-                let light_pdf = scene.light_pmf(choice, origin.p, origin.n)
-                    * emitter.pdf_direction(&ctx, origin.p, origin.p + d, -d, d);
-                le * power_heuristic(pdf, light_pdf)
-            }
-        };
+        let light_pdf = origin.bsdf_pdf.map(|_| {
+            let choice = LightChoice {
+                emitter: e,
+                prim: LightChoice::WHOLE,
+            };
+            scene.light_pmf(choice, origin.p, origin.n)
+                * emitter.pdf_direction(&ctx, origin.p, origin.p + d, -d, d)
+        });
+        l += weigh(le, light_pdf);
     }
     l
 }
@@ -231,6 +251,19 @@ pub(crate) fn environment_radiance(scene: &Scene, origin: &RayOrigin, d: Vec3) -
 /// Radiance emitted by the surface at `si` towards the ray's origin,
 /// MIS-weighted as in [`environment_radiance`].
 pub(crate) fn surface_emission(scene: &Scene, si: &SurfaceInteraction, origin: &RayOrigin) -> Rgb {
+    surface_emission_with(scene, si, origin, |le, light_pdf| {
+        power_weighted(origin, le, light_pdf)
+    })
+}
+
+/// `weigh(radiance, light density)` for the surface at `si` (zero when it
+/// does not emit towards the origin), as in [`environment_emission`].
+pub(crate) fn surface_emission_with(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    origin: &RayOrigin,
+    weigh: impl FnOnce(Rgb, Option<f32>) -> Rgb,
+) -> Rgb {
     use crate::light::{Emitter, EmitterModel, LightChoice};
     let Some(light) = scene.light_of_hit(si) else {
         return Rgb::ZERO;
@@ -240,21 +273,21 @@ pub(crate) fn surface_emission(scene: &Scene, si: &SurfaceInteraction, origin: &
     }
     let emitter = &scene.emitters[light.emitter as usize];
     let le = emitter.surface_radiance(&scene.materials, si);
-    match origin.bsdf_pdf {
-        Some(pdf) if le != Rgb::ZERO => {
-            let ctx = scene.emitter_context();
-            let n = si.sh_frame.n;
-            let pdf_direction = match emitter {
-                Emitter::Area(a) if light.prim != LightChoice::WHOLE => {
-                    a.pdf_triangle_direction(&ctx, light.prim, origin.p, si.p, n)
-                }
-                _ => emitter.pdf_direction(&ctx, origin.p, si.p, n, -si.wo),
-            };
-            let light_pdf = scene.light_pmf(light, origin.p, origin.n) * pdf_direction;
-            le * power_heuristic(pdf, light_pdf)
-        }
-        _ => le,
+    if le == Rgb::ZERO {
+        return Rgb::ZERO;
     }
+    let light_pdf = origin.bsdf_pdf.map(|_| {
+        let ctx = scene.emitter_context();
+        let n = si.sh_frame.n;
+        let pdf_direction = match emitter {
+            Emitter::Area(a) if light.prim != LightChoice::WHOLE => {
+                a.pdf_triangle_direction(&ctx, light.prim, origin.p, si.p, n)
+            }
+            _ => emitter.pdf_direction(&ctx, origin.p, si.p, n, -si.wo),
+        };
+        scene.light_pmf(light, origin.p, origin.n) * pdf_direction
+    });
+    weigh(le, light_pdf)
 }
 
 /// One light sample at `si` with MIS against the BSDF: the contribution

@@ -25,21 +25,26 @@
 //! <integrator type="volpath"><integer name="max_depth" value="32"/></integrator>
 //! ```
 //!
-//! `volpathmis` is accepted and renders with this estimator, which already
-//! weighs the channels of chromatic media by spectral MIS.
+//! `volpathmis` takes the same parameters (but only generalized shadow
+//! rays) and weighs light and phase/BSDF sampling by the densities of the
+//! whole paths each would have made (Miller et al. 2019; pbrt-v4's r_u and
+//! r_l): the chance of flying through the media on the way, of the null
+//! collisions and of the null lobes crossed, balanced over strategies and
+//! channels, where `volpath` uses the power heuristic on the last
+//! direction's densities (as Mitsuba's `volpath`).
 //!
 //! With `shadow_rays` = `binary`, a shadow ray that meets any surface
 //! (even a `null` one) carries nothing, and an emitter a path reaches
 //! through pass-through surfaces counts without MIS (light sampling could
 //! not have found it): the same image, with more variance.
 
-use super::{environment_radiance, max_depth_param, sample_chosen_light, surface_emission};
+use super::{environment_emission, max_depth_param, sample_chosen_light, surface_emission_with};
 use super::{Integrator, RayOrigin};
 use crate::bsdf::{Bsdf, BsdfContext, BsdfFlags, BsdfModel};
 use crate::interaction::SurfaceInteraction;
 use crate::light::{EmitterSample, LightSelection};
 use crate::math::{Ray, SHADOW_EPSILON};
-use crate::medium::{Medium, PathWeight};
+use crate::medium::{mean_ratio, Medium, PathWeight};
 use crate::params::{ParamError, Params};
 use crate::phase::PhaseFunction;
 use crate::sampler::SampleStream;
@@ -63,6 +68,10 @@ pub struct VolPathIntegrator {
     pub light_selection: Option<LightSelection>,
     /// Shadow rays stop at the first surface whatever it is.
     pub binary_shadow_rays: bool,
+    /// `volpathmis`: MIS weights from whole-path densities (free flights,
+    /// null collisions and null lobes included), balance heuristic over
+    /// strategies and channels.
+    pub path_mis: bool,
 }
 
 impl VolPathIntegrator {
@@ -74,6 +83,22 @@ impl VolPathIntegrator {
             hide_emitters: p.boolean_or("hide_emitters", false)?,
             light_selection: LightSelection::from_params(p)?,
             binary_shadow_rays: p.choice("shadow_rays", &["generalized", "binary"])? == 1,
+            path_mis: false,
+        })
+    }
+
+    /// Builds `volpathmis` from its scene parameters.
+    pub fn from_params_mis(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let v = Self::from_params(p)?;
+        if v.binary_shadow_rays {
+            return Err(p.param_error(
+                "shadow_rays",
+                "volpathmis weighs shadow rays by what they cross: only \"generalized\"",
+            ));
+        }
+        Ok(Self {
+            path_mis: true,
+            ..v
         })
     }
 }
@@ -86,6 +111,7 @@ impl Default for VolPathIntegrator {
             hide_emitters: false,
             light_selection: None,
             binary_shadow_rays: false,
+            path_mis: false,
         }
     }
 }
@@ -96,6 +122,35 @@ fn volpath_context() -> BsdfContext {
     BsdfContext {
         null_slabs: true,
         ..BsdfContext::default()
+    }
+}
+
+/// What a shadow ray found on its way.
+#[derive(Clone, Copy, Debug)]
+struct Shadow {
+    /// The media's transmittance (an estimate in heterogeneous media).
+    media: Rgb,
+    /// What the pass-through surfaces let through.
+    surfaces: Rgb,
+    /// The probability that BSDF sampling takes the null lobes of those
+    /// surfaces (for `volpathmis`'s path densities).
+    null_probability: f32,
+}
+
+impl Shadow {
+    const BLOCKED: Self = Self {
+        media: Rgb::ZERO,
+        surfaces: Rgb::ZERO,
+        null_probability: 0.0,
+    };
+    const CLEAR: Self = Self {
+        media: Rgb::ONE,
+        surfaces: Rgb::ONE,
+        null_probability: 1.0,
+    };
+
+    fn total(&self) -> Rgb {
+        self.media * self.surfaces
     }
 }
 
@@ -134,21 +189,49 @@ impl VolPathIntegrator {
         })
     }
 
-    /// The weighted light sample: f · L · T · w / pdf, with `f` the BSDF
-    /// or phase value and `pdf_other` that strategy's density.
-    fn weigh(s: &LightSample, f: Rgb, pdf_other: f32, tr: Rgb) -> Rgb {
-        let w = if s.alone {
-            1.0
-        } else {
-            power_heuristic(s.pdf, pdf_other)
-        };
-        f * s.ls.radiance * tr * (w / s.pdf)
+    /// The light sample's contribution to the path: f · L · T · w / pdf
+    /// times the path's weight, with `f` the BSDF or phase value and
+    /// `pdf_other` that strategy's density.
+    fn weigh(&self, path: &PathWeight, s: &LightSample, f: Rgb, pdf_other: f32, sh: Shadow) -> Rgb {
+        let pdf_other = if s.alone { 0.0 } else { pdf_other };
+        let l = f * s.ls.radiance * sh.total();
+        if !self.path_mis {
+            return path.contribution(l * (power_heuristic(s.pdf, pdf_other) / s.pdf));
+        }
+        // Balance over the strategies and channels: light sampling's
+        // density, and the path's own, which had to pass the media and
+        // pick the null lobes on the way.
+        let r_light = path.ratio * s.pdf;
+        let r_path = path.ratio * (pdf_other * sh.null_probability) * sh.media;
+        path.beta * l / mean_ratio(r_light + r_path)
+    }
+
+    /// What emission `le` reaching the path (from a vertex at which light
+    /// sampling had density `light_pdf`, `None` without MIS) contributes.
+    fn weigh_emission(
+        &self,
+        path: &PathWeight,
+        origin: &RayOrigin,
+        le: Rgb,
+        light_pdf: Option<f32>,
+    ) -> Rgb {
+        match (self.path_mis, origin.bsdf_pdf, light_pdf) {
+            (true, Some(_), Some(light_pdf)) => {
+                path.beta * le / mean_ratio(path.ratio + path.ratio_light * light_pdf)
+            }
+            (false, Some(pdf), Some(light_pdf)) => {
+                path.contribution(le * power_heuristic(pdf, light_pdf))
+            }
+            _ => path.contribution(le),
+        }
     }
 
     /// Next-event estimation at a medium scattering point `p`.
+    #[allow(clippy::too_many_arguments)]
     fn light_from_medium(
         &self,
         scene: &Scene,
+        path: &PathWeight,
         p: Vec3,
         wo: Vec3,
         phase: PhaseFunction,
@@ -173,18 +256,20 @@ impl VolPathIntegrator {
             t_min: 0.0,
             t_max,
         };
-        let tr = self.shadow_transmittance(scene, shadow, medium, sampler);
-        if tr == Rgb::ZERO {
+        let sh = self.shadow(scene, shadow, medium, sampler);
+        if sh.total() == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        Self::weigh(&s, Rgb::splat(f), phase.pdf(wo, s.ls.wi), tr)
+        self.weigh(path, &s, Rgb::splat(f), phase.pdf(wo, s.ls.wi), sh)
     }
 
     /// Next-event estimation at a surface; `medium` is the one the path
     /// arrived in.
+    #[allow(clippy::too_many_arguments)]
     fn light_from_surface(
         &self,
         scene: &Scene,
+        path: &PathWeight,
         si: &SurfaceInteraction,
         bsdf: &Bsdf,
         wo: Vec3,
@@ -206,54 +291,59 @@ impl VolPathIntegrator {
             si.spawn_ray(s.ls.wi)
         };
         let medium = scene.medium_after(si, s.ls.wi, medium);
-        let tr = self.shadow_transmittance(scene, shadow, medium, sampler);
-        if tr == Rgb::ZERO {
+        let sh = self.shadow(scene, shadow, medium, sampler);
+        if sh.total() == Rgb::ZERO {
             return Rgb::ZERO;
         }
         let pdf = bsdf.pdf(&scene.materials, &ctx, si, wo, wi);
-        Self::weigh(&s, f, pdf, tr)
+        self.weigh(path, &s, f, pdf, sh)
     }
 
     /// What reaches the end of a shadow ray that starts in `medium`:
     /// through pass-through surfaces (changing medium where shapes bound
-    /// media) and media; zero at the first opaque surface.
-    fn shadow_transmittance(
+    /// media) and media; nothing past the first opaque surface.
+    fn shadow(
         &self,
         scene: &Scene,
         mut r: Ray,
         mut medium: Option<u32>,
         sampler: &mut SampleStream,
-    ) -> Rgb {
+    ) -> Shadow {
         if self.binary_shadow_rays {
             return if scene.occluded(&r) {
-                Rgb::ZERO
+                Shadow::BLOCKED
             } else {
-                Self::medium_transmittance(scene, &r, r.t_max, medium, sampler)
+                Shadow {
+                    media: Self::medium_transmittance(scene, &r, r.t_max, medium, sampler),
+                    ..Shadow::CLEAR
+                }
             };
         }
         if !scene.shadow_rays_cross_surfaces() {
             return if scene.occluded(&r) {
-                Rgb::ZERO
+                Shadow::BLOCKED
             } else {
-                Rgb::ONE
+                Shadow::CLEAR
             };
         }
-        let mut tr = Rgb::ONE;
+        let mut sh = Shadow::CLEAR;
         for _ in 0..MAX_SHADOW_CROSSINGS {
             let si = scene.intersect(&r);
             let end = si.as_ref().map_or(r.t_max, |s| s.t);
-            tr *= Self::medium_transmittance(scene, &r, end, medium, sampler);
-            if tr.max_element() <= 0.0 {
-                return Rgb::ZERO;
+            sh.media *= Self::medium_transmittance(scene, &r, end, medium, sampler);
+            if sh.media.max_element() <= 0.0 {
+                return Shadow::BLOCKED;
             }
             let Some(si) = si else {
-                return tr;
+                return sh;
             };
-            tr *= scene
+            let (p, t) = scene
                 .bsdf_of(si.shape)
-                .null_transmission(&scene.materials, &si, true);
-            if tr.max_element() <= 0.0 {
-                return Rgb::ZERO;
+                .null_crossing(&scene.materials, &si, true);
+            sh.surfaces *= t;
+            sh.null_probability *= p;
+            if sh.surfaces.max_element() <= 0.0 {
+                return Shadow::BLOCKED;
             }
             medium = scene.medium_after(&si, r.d, medium);
             let next = si.spawn_ray(r.d);
@@ -262,10 +352,10 @@ impl VolPathIntegrator {
                 ..next
             };
             if r.t_max <= r.t_min {
-                return tr;
+                return sh;
             }
         }
-        Rgb::ZERO
+        Shadow::BLOCKED
     }
 
     /// Transmittance of `medium` along `r` up to `end`.
@@ -376,11 +466,11 @@ impl Integrator for VolPathIntegrator {
                     let wo = -ray.d;
                     let phase = m.phase();
                     if m.sample_emitters() {
-                        let le = self.light_from_medium(scene, p, wo, phase, medium, sampler);
-                        l += path.contribution(le);
+                        l += self.light_from_medium(scene, &path, p, wo, phase, medium, sampler);
                     }
                     let ps = phase.sample(wo, sampler.next_2d());
                     path.beta *= ps.weight;
+                    path.ratio_light = path.ratio / ps.pdf;
                     origin = RayOrigin {
                         p,
                         n: Vec3::ZERO,
@@ -404,20 +494,20 @@ impl Integrator for VolPathIntegrator {
             } else {
                 origin
             };
+            let weigh = |le, light_pdf| self.weigh_emission(&path, &mis_origin, le, light_pdf);
             let Some(si) = si else {
                 if !hidden {
-                    l += path.contribution(environment_radiance(scene, &mis_origin, ray.d));
+                    l += environment_emission(scene, &mis_origin, ray.d, weigh);
                 }
                 break;
             };
             if !hidden {
-                l += path.contribution(surface_emission(scene, &si, &mis_origin));
+                l += surface_emission_with(scene, &si, &mis_origin, weigh);
             }
             let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
             if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) && depth + 1 < max_depth {
-                let le = self.light_from_surface(scene, &si, bsdf, wo, medium, sampler);
-                l += path.contribution(le);
+                l += self.light_from_surface(scene, &path, &si, bsdf, wo, medium, sampler);
             }
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
@@ -431,8 +521,11 @@ impl Integrator for VolPathIntegrator {
             ray = si.spawn_ray(wi);
             if bs.sampled == BsdfFlags::NULL {
                 crossed |= self.binary_shadow_rays;
+                // Light sampling crosses the surface without choosing.
+                path.ratio_light /= bs.pdf;
             } else {
                 depth += 1;
+                path.ratio_light = path.ratio / bs.pdf;
                 let pdf = (!bs.sampled.intersects(BsdfFlags::DELTA)).then_some(bs.pdf);
                 origin = RayOrigin::surface(&si, pdf);
                 crossed = false;

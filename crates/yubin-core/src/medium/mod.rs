@@ -147,6 +147,14 @@ pub struct PathWeight {
     pub beta: Rgb,
     /// Density ratios p_c / p_hero (1 in the hero channel).
     pub ratio: Rgb,
+    /// For `volpathmis`: the densities with which light sampling from the
+    /// last scattering vertex would reach here, per channel, relative to
+    /// p_hero and before the light's own density (pbrt-v4's r_l): set to
+    /// `ratio` / the direction's density at each scattering event, then
+    /// divided by what the path's own sampling adds that light sampling
+    /// does not (the hero's probability of passing a homogeneous segment,
+    /// null collisions' σ_n,h / μ, null lobes' probabilities).
+    pub ratio_light: Rgb,
     /// The channel that samples distances (0, 1 or 2).
     pub hero: usize,
 }
@@ -157,6 +165,7 @@ impl PathWeight {
         Self {
             beta: Rgb::ONE,
             ratio: Rgb::ONE,
+            ratio_light: Rgb::ONE,
             hero,
         }
     }
@@ -311,6 +320,8 @@ impl Homogeneous {
         path.ratio *= s.ratio;
         if !s.scattered {
             path.beta *= s.weight;
+            let t_hero = self.coefficients().transmittance(t_max)[path.hero];
+            path.ratio_light /= t_hero;
             return Flight {
                 t: t_max,
                 scattered: false,
@@ -381,6 +392,7 @@ impl Heterogeneous {
                 let sigma_n = (Rgb::splat(mu) - sigma_t).max(Rgb::ZERO);
                 path.beta *= sigma_n / sigma_n[hero];
                 path.ratio *= sigma_n / sigma_n[hero];
+                path.ratio_light *= mu / sigma_n[hero];
             }
         });
         Flight {
