@@ -278,6 +278,33 @@ impl Scene {
         Some(self.interaction(ray, &closest, h))
     }
 
+    /// The closest hit along `ray`, with its interaction computed only when
+    /// `wanted(shape)`: `Some(Ok(si))`, or `Some(Err(shape))` for a hit on
+    /// a shape not wanted (a shadow ray's opaque blocker costs no
+    /// interaction).
+    pub fn intersect_if(
+        &self,
+        ray: &Ray,
+        wanted: impl FnOnce(u32) -> bool,
+    ) -> Option<Result<SurfaceInteraction, u32>> {
+        let h = self.closest_hit(ray)?;
+        if !wanted(h.shape) {
+            return Some(Err(h.shape));
+        }
+        let closest = Ray {
+            t_max: h.hit.t,
+            ..*ray
+        };
+        Some(Ok(self.interaction(ray, &closest, h)))
+    }
+
+    /// Whether light may pass straight through shape `shape`
+    /// ([`Bsdf::lets_light_through`]).
+    #[inline]
+    pub fn lets_light_through(&self, shape: u32) -> bool {
+        self.bsdf_of(shape).lets_light_through(&self.materials)
+    }
+
     /// Shape of the top-level BVH (for benchmarks and tuning).
     pub fn bvh_stats(&self) -> crate::accel::BvhStats {
         self.groups[0].bvh.stats()
@@ -489,8 +516,10 @@ impl Scene {
         let mut tr = 1.0;
         let mut r = *ray;
         for _ in 0..=max_crossings.min(MAX_CROSSINGS) {
-            let Some(si) = self.intersect(&r) else {
-                return tr;
+            let si = match self.intersect_if(&r, |shape| self.lets_light_through(shape)) {
+                None => return tr,
+                Some(Err(_)) => return 0.0,
+                Some(Ok(si)) => si,
             };
             tr *= self.bsdf_of(si.shape).pass_through(&self.materials, &si);
             if tr <= 0.0 {

@@ -145,6 +145,16 @@ fn render_fails(dir: &TempDir, xml: &str) -> String {
     expect_failure(dir, &["render", "scene.xml", "-o", OUT, "--quiet"], 1)
 }
 
+/// Renders `xml` in `dir`, expecting failure with a message that names
+/// `scene.xml` at the line holding `line_needle` and mentions `needles`.
+fn fails_at_line(dir: &TempDir, xml: &str, line_needle: &str, needles: &[&str]) {
+    let stderr = render_fails(dir, xml);
+    let line = format!("scene.xml:{}", line_of(xml, line_needle));
+    let mut all = vec![line.as_str()];
+    all.extend_from_slice(needles);
+    assert_mentions(&stderr, &all);
+}
+
 /// Renders `scene.xml` in `dir` and expects an EXR at [`OUT`] and nothing
 /// else new.
 fn render_succeeds(dir: &TempDir) {
@@ -444,12 +454,7 @@ fn material_errors_name_the_line_and_the_problem() {
         let xml = scene(&format!(
             "\t<shape type=\"sphere\">\n\t\t{bsdf}\n\t</shape>"
         ));
-        let stderr = render_fails(&dir, &xml);
-        let line = line_of(&xml, line_needle);
-        let mut all = vec![format!("scene.xml:{line}")];
-        all.extend(needles.iter().map(|n| n.to_string()));
-        let all: Vec<&str> = all.iter().map(String::as_str).collect();
-        assert_mentions(&stderr, &all);
+        fails_at_line(&dir, &xml, line_needle, needles);
     }
 }
 
@@ -530,12 +535,7 @@ fn media_errors_name_the_file_and_line() {
         let dir = TempDir::new(&format!("media_error_{name}"));
         dir.write(name, bytes);
         let xml = scene(&smoke(name));
-        let stderr = render_fails(&dir, &xml);
-        let line = line_of(&xml, &format!("value=\"{name}\""));
-        let mut all = vec![format!("scene.xml:{line}")];
-        all.extend(needles.iter().map(|n| n.to_string()));
-        let all: Vec<&str> = all.iter().map(String::as_str).collect();
-        assert_mentions(&stderr, &all);
+        fails_at_line(&dir, &xml, &format!("value=\"{name}\""), needles);
     }
     let cases: &[(&str, &[&str], &str)] = &[
         (
@@ -562,11 +562,6 @@ fn media_errors_name_the_file_and_line() {
     for (i, (body, needles, line_needle)) in cases.iter().enumerate() {
         let dir = TempDir::new(&format!("media_error_{i}"));
         let xml = scene(body);
-        let stderr = render_fails(&dir, &xml);
-        let line = line_of(&xml, line_needle);
-        let mut all = vec![format!("scene.xml:{line}")];
-        all.extend(needles.iter().map(|n| n.to_string()));
-        let all: Vec<&str> = all.iter().map(String::as_str).collect();
-        assert_mentions(&stderr, &all);
+        fails_at_line(&dir, &xml, line_needle, needles);
     }
 }

@@ -44,7 +44,7 @@ use crate::bsdf::{Bsdf, BsdfContext, BsdfFlags, BsdfModel};
 use crate::interaction::SurfaceInteraction;
 use crate::light::{EmitterSample, LightSelection};
 use crate::math::{Ray, SHADOW_EPSILON};
-use crate::medium::{mean_ratio, Medium, PathWeight};
+use crate::medium::{mean_ratio, Flight, Medium, PathWeight};
 use crate::params::{ParamError, Params};
 use crate::phase::PhaseFunction;
 use crate::sampler::SampleStream;
@@ -328,7 +328,11 @@ impl VolPathIntegrator {
         }
         let mut sh = Shadow::CLEAR;
         for _ in 0..MAX_SHADOW_CROSSINGS {
-            let si = scene.intersect(&r);
+            let si = match scene.intersect_if(&r, |shape| scene.lets_light_through(shape)) {
+                Some(Err(_)) => return Shadow::BLOCKED,
+                Some(Ok(si)) => Some(si),
+                None => None,
+            };
             let end = si.as_ref().map_or(r.t_max, |s| s.t);
             sh.media *= Self::medium_transmittance(scene, &r, end, medium, sampler);
             if sh.media.max_element() <= 0.0 {
@@ -371,6 +375,39 @@ impl VolPathIntegrator {
                 scene.media[m as usize].transmittance(r.o, r.d, end, &mut || sampler.next_1d())
             }
             None => Rgb::ONE,
+        }
+    }
+
+    /// Follows `ray` through `medium` to its next event: the surface it
+    /// reaches, if any, and the free flight through the medium (a
+    /// scattering event before the surface, or the weight of passing).
+    fn trace(
+        scene: &Scene,
+        ray: &Ray,
+        medium: Option<u32>,
+        path: &mut PathWeight,
+        sampler: &mut SampleStream,
+    ) -> (Option<SurfaceInteraction>, Option<Flight>) {
+        match medium.map(|m| &scene.media[m as usize]) {
+            None => (scene.intersect(ray), None),
+            // The distance is drawn first, and surfaces are looked for
+            // only that far: a scattering event computes no hit.
+            Some(Medium::Homogeneous(h)) => {
+                let t = h.free_distance(path, sampler.next_1d());
+                let si = scene.intersect(&Ray {
+                    t_max: ray.t_max.min(t),
+                    ..*ray
+                });
+                let end = si.as_ref().map_or(ray.t_max, |s| s.t);
+                (si, Some(h.end_flight(ray.o, ray.d, t, end, path)))
+            }
+            Some(m) => {
+                let si = scene.intersect(ray);
+                let end = si.as_ref().map_or(ray.t_max, |s| s.t);
+                let mut next = || sampler.next_1d();
+                let flight = m.sample_flight(ray.o, ray.d, end, path, &mut next);
+                (si, Some(flight))
+            }
         }
     }
 
@@ -428,29 +465,7 @@ impl Integrator for VolPathIntegrator {
         // Real scattering events so far.
         let mut depth: u32 = 0;
         while depth < max_depth {
-            let (si, flight) = match medium.map(|m| &scene.media[m as usize]) {
-                None => (scene.intersect(&ray), None),
-                // The distance is drawn first, and surfaces are looked for
-                // only that far: a scattering event computes no hit.
-                Some(Medium::Homogeneous(h)) => {
-                    let t = h.free_distance(&path, sampler.next_1d());
-                    let si = scene.intersect(&Ray {
-                        t_max: ray.t_max.min(t),
-                        ..ray
-                    });
-                    let end = si.as_ref().map_or(ray.t_max, |s| s.t);
-                    (si, Some(h.end_flight(ray.o, ray.d, t, end, &mut path)))
-                }
-                Some(m) => {
-                    let si = scene.intersect(&ray);
-                    let end = si.as_ref().map_or(ray.t_max, |s| s.t);
-                    let mut next = || sampler.next_1d();
-                    (
-                        si,
-                        Some(m.sample_flight(ray.o, ray.d, end, &mut path, &mut next)),
-                    )
-                }
-            };
+            let (si, flight) = Self::trace(scene, &ray, medium, &mut path, sampler);
             if let (Some(flight), Some(m)) = (flight, medium) {
                 let m = &scene.media[m as usize];
                 l += flight.emitted;

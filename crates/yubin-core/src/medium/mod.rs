@@ -576,6 +576,39 @@ mod tests {
     use crate::sampler::Pcg32;
     use crate::testing::chi2::chi2_discrete;
 
+    /// Sums of per-channel estimates and of their squares.
+    #[derive(Default)]
+    struct Moments {
+        sum: Rgb,
+        sum2: Rgb,
+    }
+
+    impl Moments {
+        fn add(&mut self, w: Rgb) {
+            self.sum += w;
+            self.sum2 += w * w;
+        }
+
+        /// Asserts that the mean of `n` estimates (zero where none was
+        /// added) is `want` within 4 standard errors per channel.
+        fn assert_mean(&self, n: usize, want: Rgb, what: &str) {
+            let nf = n as f32;
+            let mean = self.sum / nf;
+            let se = ((self.sum2 / nf - mean * mean) / nf)
+                .max(Rgb::ZERO)
+                .powf(0.5);
+            for c in 0..3 {
+                assert!(
+                    (mean[c] - want[c]).abs() < 4.0 * se[c] + 1e-4,
+                    "{what}, channel {c}: {} vs {} (± {})",
+                    mean[c],
+                    want[c],
+                    se[c]
+                );
+            }
+        }
+    }
+
     fn chromatic() -> HomogeneousCoefficients {
         HomogeneousCoefficients {
             sigma_t: Rgb::new(0.5, 1.5, 4.0),
@@ -639,8 +672,7 @@ mod tests {
         let t_max = 1.3;
         let n = 400_000;
         let mut rng = Pcg32::new(5, 2);
-        let (mut pass, mut pass2, mut scat, mut scat2) =
-            (Rgb::ZERO, Rgb::ZERO, Rgb::ZERO, Rgb::ZERO);
+        let (mut pass, mut scat) = (Moments::default(), Moments::default());
         for _ in 0..n {
             let hero = ((rng.next_f32() * 3.0) as usize).min(2);
             let s = m.sample_distance(t_max, hero, rng.next_f32());
@@ -655,31 +687,14 @@ mod tests {
             };
             assert!(w.cmple(bound * 1.0001).all(), "weight {w} above {bound}");
             if s.scattered {
-                let w = w / (m.sigma_t * m.albedo);
-                scat += w;
-                scat2 += w * w;
+                scat.add(w / (m.sigma_t * m.albedo));
             } else {
-                pass += w;
-                pass2 += w * w;
+                pass.add(w);
             }
         }
-        let nf = n as f32;
-        let check = |sum: Rgb, sum2: Rgb, want: Rgb, what: &str| {
-            let mean = sum / nf;
-            let se = ((sum2 / nf - mean * mean) / nf).max(Rgb::ZERO).powf(0.5);
-            for c in 0..3 {
-                assert!(
-                    (mean[c] - want[c]).abs() < 4.0 * se[c] + 1e-4,
-                    "{what}, channel {c}: {} vs {} (± {})",
-                    mean[c],
-                    want[c],
-                    se[c]
-                );
-            }
-        };
-        check(pass, pass2, m.transmittance(t_max), "passing");
+        pass.assert_mean(n, m.transmittance(t_max), "passing");
         let integral = (Rgb::ONE - m.transmittance(t_max)) / m.sigma_t;
-        check(scat, scat2, integral, "scattering");
+        scat.assert_mean(n, integral, "scattering");
     }
 
     /// Delta tracking in a chromatic heterogeneous medium under a loose
@@ -708,43 +723,22 @@ mod tests {
         let n = 300_000;
         let mut rng = Pcg32::new(11, 4);
         let mut next = || rng.next_f32();
-        let (mut pass, mut scat, mut tr) = (Rgb::ZERO, Rgb::ZERO, Rgb::ZERO);
-        let (mut pass2, mut scat2, mut tr2) = (Rgb::ZERO, Rgb::ZERO, Rgb::ZERO);
+        let (mut pass, mut scat, mut tr) =
+            (Moments::default(), Moments::default(), Moments::default());
         for i in 0..n {
             let mut path = PathWeight::new(i % 3);
             let f = medium.sample_flight(Vec3::ZERO, Vec3::X, length, &mut path, &mut next);
             let w = path.contribution(Rgb::ONE);
             if f.scattered {
-                let w = w / (sigma * albedo);
-                scat += w;
-                scat2 += w * w;
+                scat.add(w / (sigma * albedo));
             } else {
-                pass += w;
-                pass2 += w * w;
+                pass.add(w);
             }
-            let t = medium.transmittance(Vec3::ZERO, Vec3::X, length, &mut next);
-            tr += t;
-            tr2 += t * t;
+            tr.add(medium.transmittance(Vec3::ZERO, Vec3::X, length, &mut next));
         }
-        let nf = n as f32;
         let want_t = (-sigma * length).exp();
-        let want_int = (Rgb::ONE - want_t) / sigma;
-        for (sum, sum2, want, what) in [
-            (pass, pass2, want_t, "passing"),
-            (scat, scat2, want_int, "scattering"),
-            (tr, tr2, want_t, "ratio tracking"),
-        ] {
-            let mean = sum / nf;
-            let se = ((sum2 / nf - mean * mean) / nf).max(Rgb::ZERO).powf(0.5);
-            for c in 0..3 {
-                assert!(
-                    (mean[c] - want[c]).abs() < 4.0 * se[c] + 1e-4,
-                    "{what}, channel {c}: {} vs {} (± {})",
-                    mean[c],
-                    want[c],
-                    se[c]
-                );
-            }
-        }
+        pass.assert_mean(n, want_t, "passing");
+        scat.assert_mean(n, (Rgb::ONE - want_t) / sigma, "scattering");
+        tr.assert_mean(n, want_t, "ratio tracking");
     }
 }
