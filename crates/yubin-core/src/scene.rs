@@ -202,6 +202,26 @@ impl ShapeEmitter {
     }
 }
 
+/// The first surface a shadow ray meets ([`Scene::shadow_hit`]).
+#[derive(Clone, Copy, Debug)]
+pub enum ShadowHit {
+    /// A surface that lets no light straight through.
+    Opaque,
+    /// A plain `null` surface.
+    Null {
+        /// Ray parameter of the hit.
+        t: f32,
+        /// Hit point.
+        p: glam::Vec3,
+        /// Geometric normal, as the interaction would give it.
+        n: glam::Vec3,
+        /// The shape.
+        shape: u32,
+    },
+    /// Another surface that may let light through.
+    Surface(SurfaceInteraction),
+}
+
 /// A scene ready to render.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -296,6 +316,41 @@ impl Scene {
             ..*ray
         };
         Some(Ok(self.interaction(ray, &closest, h)))
+    }
+
+    /// The first surface along a shadow ray, with no more computed than the
+    /// ray needs: nothing for a surface that lets no light straight
+    /// through, the point and normal for a plain `null` one, the whole
+    /// interaction otherwise.
+    pub fn shadow_hit(&self, ray: &Ray) -> Option<ShadowHit> {
+        let h = self.closest_hit(ray)?;
+        let bsdf = self.bsdf_of(h.shape);
+        if !bsdf.lets_light_through(&self.materials) {
+            return Some(ShadowHit::Opaque);
+        }
+        let closest = Ray {
+            t_max: h.hit.t,
+            ..*ray
+        };
+        if !matches!(bsdf, Bsdf::Null(_)) {
+            return Some(ShadowHit::Surface(self.interaction(ray, &closest, h)));
+        }
+        let shape = &self.shapes[h.shape as usize];
+        let (p, n) = match h.instance {
+            None => shape.point_and_normal(&self.meshes, h.prim, &closest, h.hit),
+            Some(inst) => {
+                let t = &self.instances[inst as usize].to_world;
+                let local_ray = to_local_ray(&closest, t);
+                let (p, n) = shape.point_and_normal(&self.meshes, h.prim, &local_ray, h.hit);
+                (t.point(p), t.normal(n).normalize())
+            }
+        };
+        Some(ShadowHit::Null {
+            t: h.hit.t,
+            p,
+            n,
+            shape: h.shape,
+        })
     }
 
     /// Whether light may pass straight through shape `shape`
@@ -550,11 +605,24 @@ impl Scene {
         d: glam::Vec3,
         current: Option<u32>,
     ) -> Option<u32> {
-        let info = &self.shape_info[si.shape as usize];
+        self.medium_across(si.shape, si.n, d, current)
+    }
+
+    /// [`Scene::medium_after`] for a hit on `shape` whose geometric normal
+    /// is `n`.
+    #[inline]
+    pub fn medium_across(
+        &self,
+        shape: u32,
+        n: glam::Vec3,
+        d: glam::Vec3,
+        current: Option<u32>,
+    ) -> Option<u32> {
+        let info = &self.shape_info[shape as usize];
         if !info.is_medium_transition() {
             return current;
         }
-        if d.dot(si.n) > 0.0 {
+        if d.dot(n) > 0.0 {
             info.exterior
         } else {
             info.interior

@@ -43,12 +43,13 @@ use super::{Integrator, RayOrigin};
 use crate::bsdf::{Bsdf, BsdfContext, BsdfFlags, BsdfModel};
 use crate::interaction::SurfaceInteraction;
 use crate::light::{EmitterSample, LightSelection};
-use crate::math::{Ray, SHADOW_EPSILON};
+use crate::math::{spawn_ray, Ray, SHADOW_EPSILON};
 use crate::medium::{mean_ratio, Flight, Medium, PathWeight};
 use crate::params::{ParamError, Params};
 use crate::phase::PhaseFunction;
 use crate::sampler::SampleStream;
 use crate::sampling::power_heuristic;
+use crate::scene::ShadowHit;
 use crate::{Rgb, Scene};
 use glam::Vec3;
 
@@ -328,32 +329,36 @@ impl VolPathIntegrator {
         }
         let mut sh = Shadow::CLEAR;
         for _ in 0..MAX_SHADOW_CROSSINGS {
-            let si = match scene.intersect_if(&r, |shape| scene.lets_light_through(shape)) {
-                Some(Err(_)) => return Shadow::BLOCKED,
-                Some(Ok(si)) => Some(si),
+            // The surface ahead, if any: where, its normal and shape, and
+            // what crossing it takes (probability of the null lobes, what
+            // passes).
+            let crossing = match scene.shadow_hit(&r) {
                 None => None,
+                Some(ShadowHit::Opaque) => return Shadow::BLOCKED,
+                Some(ShadowHit::Null { t, p, n, shape }) => Some((t, p, n, shape, (1.0, Rgb::ONE))),
+                Some(ShadowHit::Surface(si)) => {
+                    let bsdf = scene.bsdf_of(si.shape);
+                    let c = bsdf.null_crossing(&scene.materials, &si, true);
+                    Some((si.t, si.p, si.n, si.shape, c))
+                }
             };
-            let end = si.as_ref().map_or(r.t_max, |s| s.t);
+            let end = crossing.map_or(r.t_max, |c| c.0);
             sh.media *= Self::medium_transmittance(scene, &r, end, medium, sampler);
             if sh.media.max_element() <= 0.0 {
                 return Shadow::BLOCKED;
             }
-            let Some(si) = si else {
+            let Some((t, p, n, shape, (probability, passes))) = crossing else {
                 return sh;
             };
-            let (p, t) = scene
-                .bsdf_of(si.shape)
-                .null_crossing(&scene.materials, &si, true);
-            sh.surfaces *= t;
-            sh.null_probability *= p;
+            sh.surfaces *= passes;
+            sh.null_probability *= probability;
             if sh.surfaces.max_element() <= 0.0 {
                 return Shadow::BLOCKED;
             }
-            medium = scene.medium_after(&si, r.d, medium);
-            let next = si.spawn_ray(r.d);
+            medium = scene.medium_across(shape, n, r.d, medium);
             r = Ray {
-                t_max: r.t_max - si.t,
-                ..next
+                t_max: r.t_max - t,
+                ..spawn_ray(p, n, r.d)
             };
             if r.t_max <= r.t_min {
                 return sh;

@@ -320,8 +320,11 @@ impl Homogeneous {
         path.ratio *= s.ratio;
         if !s.scattered {
             path.beta *= s.weight;
-            let t_hero = self.coefficients().transmittance(t_max)[path.hero];
-            path.ratio_light /= t_hero;
+            // The hero's chance of passing, e^(−σ_h t_max) (1 where σ_h = 0).
+            let sigma_hero = self.sigma_t[path.hero];
+            if sigma_hero > 0.0 {
+                path.ratio_light /= (-sigma_hero * t_max).exp();
+            }
             return Flight {
                 t: t_max,
                 scattered: false,

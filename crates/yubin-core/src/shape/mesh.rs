@@ -434,7 +434,7 @@ impl TriangleMesh {
         let b0 = 1.0 - b.x - b.y;
         let p = p0 * b0 + p1 * b.x + p2 * b.y;
         let (e1, e2) = (p1 - p0, p2 - p0);
-        let mut n = e1.cross(e2).normalize_or_zero();
+        let n = e1.cross(e2).normalize_or_zero();
         let [uv0, uv1, uv2] = if self.uvs.is_empty() {
             [Vec2::ZERO, Vec2::X, Vec2::Y]
         } else {
@@ -453,22 +453,42 @@ impl TriangleMesh {
             let f = Frame::from_normal(n);
             (f.s, f.t)
         };
+        let (n, ns) = self.oriented_normals(idx, b, n);
+        (p, n, ns, uv, dpdu, dpdv)
+    }
+
+    /// Point and unit geometric normal (as [`TriangleMesh::surface_at`]
+    /// orients it) at barycentrics (b1, b2) of triangle `tri`.
+    fn point_and_normal(&self, tri: usize, b: Vec2) -> (Vec3, Vec3) {
+        let idx = self.indices[tri].map(|i| i as usize);
+        let [p0, p1, p2] = idx.map(|i| self.positions[i]);
+        let p = p0 * (1.0 - b.x - b.y) + p1 * b.x + p2 * b.y;
+        let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+        (p, self.oriented_normals(idx, b, n).0)
+    }
+
+    /// The geometric normal `n` of the triangle with vertices `idx` and the
+    /// shading normal at barycentrics `b`, both flipped by `flip_normals`,
+    /// the geometric one then turned to the shading normal's side (so that
+    /// "front" means the same thing to emitters, BSDFs and ray offsets).
+    fn oriented_normals(&self, idx: [usize; 3], b: Vec2, n: Vec3) -> (Vec3, Vec3) {
+        let mut n = n;
         let mut ns = if self.normals.is_empty() {
             n
         } else {
             let [n0, n1, n2] = idx.map(|i| self.normals[i]);
-            (n0 * b0 + n1 * b.x + n2 * b.y).try_normalize().unwrap_or(n)
+            (n0 * (1.0 - b.x - b.y) + n1 * b.x + n2 * b.y)
+                .try_normalize()
+                .unwrap_or(n)
         };
         if self.flip_normals {
             n = -n;
             ns = -ns;
         }
-        // Keep the geometric normal on the shading normal's side, so that
-        // "front" means the same thing to emitters, BSDFs and ray offsets.
         if n.dot(ns) < 0.0 {
             n = -n;
         }
-        (p, n, ns, uv, dpdu, dpdv)
+        (n, ns)
     }
 }
 
@@ -523,6 +543,17 @@ impl ShapeModel for MeshShape {
     #[inline]
     fn intersect(&self, meshes: &[TriangleMesh], prim: u32, ray: &Ray) -> Option<PrimHit> {
         meshes[self.mesh as usize].intersect_triangle(prim as usize, ray)
+    }
+
+    #[inline]
+    fn point_and_normal(
+        &self,
+        meshes: &[TriangleMesh],
+        prim: u32,
+        _: &Ray,
+        hit: PrimHit,
+    ) -> (Vec3, Vec3) {
+        meshes[self.mesh as usize].point_and_normal(prim as usize, hit.uv)
     }
 
     fn interaction(
@@ -602,6 +633,37 @@ pub(crate) mod tests {
         m.transform(&tilt);
         m.prepare_area_sampling();
         m
+    }
+
+    /// `point_and_normal` (what shadow rays crossing `null` surfaces read)
+    /// gives the interaction's point and geometric normal, with and
+    /// without vertex normals (one set against the winding), flipped or
+    /// not.
+    #[test]
+    fn point_and_normal_is_the_interactions() {
+        let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let against = vec![Vec3::new(0.1, 0.0, -1.0).normalize(); 3];
+        for normals in [vec![], against] {
+            for flip in [false, true] {
+                let m = TriangleMesh::new(
+                    positions.clone(),
+                    normals.clone(),
+                    vec![],
+                    vec![[0, 1, 2]],
+                    false,
+                    flip,
+                )
+                .unwrap();
+                let meshes = [m];
+                let shape = MeshShape { mesh: 0 };
+                let ray = Ray::new(Vec3::new(0.2, 0.3, 1.0), Vec3::new(0.1, -0.2, -1.0));
+                let hit = shape.intersect(&meshes, 0, &ray).expect("the ray hits");
+                let si = shape.interaction(&meshes, 0, &ray, hit);
+                let (p, n) = shape.point_and_normal(&meshes, 0, &ray, hit);
+                assert!((p - si.p).length() < 1e-6, "{p} vs {}", si.p);
+                assert_eq!(n, si.n, "normals {}, flip {flip}", normals.len());
+            }
+        }
     }
 
     /// A placed copy shows what an instance with that transform shows:

@@ -138,6 +138,19 @@ pub trait ShapeModel {
         ray: &Ray,
         hit: PrimHit,
     ) -> SurfaceInteraction;
+    /// The hit point and its geometric normal as [`ShapeModel::interaction`]
+    /// gives them, for callers that need nothing else (shadow rays
+    /// crossing `null` surfaces); by default from the interaction.
+    fn point_and_normal(
+        &self,
+        meshes: &[TriangleMesh],
+        prim: u32,
+        ray: &Ray,
+        hit: PrimHit,
+    ) -> (Vec3, Vec3) {
+        let si = self.interaction(meshes, prim, ray, hit);
+        (si.p, si.n)
+    }
     /// Total surface area.
     fn surface_area(&self, meshes: &[TriangleMesh]) -> f32;
     /// A point uniformly distributed by area.
@@ -265,6 +278,16 @@ impl ShapeModel for Shape {
         hit: PrimHit,
     ) -> SurfaceInteraction {
         dispatch!(self, s => s.interaction(meshes, prim, ray, hit))
+    }
+    #[inline]
+    fn point_and_normal(
+        &self,
+        meshes: &[TriangleMesh],
+        prim: u32,
+        ray: &Ray,
+        hit: PrimHit,
+    ) -> (Vec3, Vec3) {
+        dispatch!(self, s => s.point_and_normal(meshes, prim, ray, hit))
     }
     #[inline]
     fn surface_area(&self, meshes: &[TriangleMesh]) -> f32 {
