@@ -34,47 +34,138 @@ pub fn render(
     if let Some(tracer) = integrator.particle_tracer() {
         return tracer.render(scene, settings, progress);
     }
-    let film = &scene.film;
-    let crop = film.crop_size;
-    let channels = integrator.channel_count();
-    let tiles = tiles(crop);
-    let filter = FilterTable::new(&film.filter);
-    let results: Vec<(TileBuffer, u64)> = tiles
-        .par_iter()
-        .map(|&tile| {
-            let r = render_tile(scene, integrator, settings, &filter, tile, channels);
-            progress(
-                u64::from(tile.x1 - tile.x0)
-                    * u64::from(tile.y1 - tile.y0)
-                    * u64::from(settings.spp),
-            );
-            r
-        })
-        .collect();
-    let stride = channels + 1;
-    let mut sums = vec![0.0f32; crop[0] as usize * crop[1] as usize * stride];
-    let mut dropped = 0;
-    for (buf, bad) in &results {
-        buf.merge_into(&mut sums, crop);
-        dropped += bad;
-    }
-    let data = sums
-        .chunks_exact(stride)
-        .flat_map(|px| {
-            let w = px[channels];
-            let inv = if w > 0.0 { 1.0 / w } else { 0.0 };
-            px[..channels].iter().map(move |v| v * inv)
-        })
-        .collect();
-    RenderOutput {
-        image: Framebuffer {
-            width: crop[0],
-            height: crop[1],
+    let mut passes = Progressive::new(scene, integrator, *settings, settings.spp);
+    passes.pass(progress);
+    passes.output()
+}
+
+/// A render in passes over the whole image (for progressive and
+/// time-limited renders): pass k takes samples k·n to (k + 1)·n − 1 of
+/// every pixel (n = `pass_spp`; the last pass may take fewer), and the
+/// image after any pass is the average of the samples so far. It is
+/// bit-identical for any thread count: every sample depends only on
+/// (pixel, index, dimension, seed), tiles are merged in order, passes in
+/// turn. Not for particle tracers ([`Integrator::particle_tracer`]),
+/// which render through their own loop.
+#[derive(Debug)]
+pub struct Progressive<'a> {
+    scene: &'a Scene,
+    integrator: &'a dyn Integrator,
+    settings: RenderSettings,
+    pass_spp: u32,
+    filter: FilterTable,
+    channels: usize,
+    /// Per pixel: the weighted sums of each channel, then the weight.
+    sums: Vec<f32>,
+    /// Samples per pixel taken so far.
+    done: u32,
+    passes: u32,
+    dropped: u64,
+}
+
+impl<'a> Progressive<'a> {
+    /// A render of `settings.spp` samples per pixel in passes of
+    /// `pass_spp` (at least 1).
+    pub fn new(
+        scene: &'a Scene,
+        integrator: &'a dyn Integrator,
+        settings: RenderSettings,
+        pass_spp: u32,
+    ) -> Self {
+        let crop = scene.film.crop_size;
+        let channels = integrator.channel_count();
+        Self {
+            scene,
+            integrator,
+            settings,
+            pass_spp: pass_spp.max(1),
+            filter: FilterTable::new(&scene.film.filter),
             channels,
-            data,
-        },
-        layers: integrator.extra_layers(),
-        dropped_samples: dropped,
+            sums: vec![0.0; crop[0] as usize * crop[1] as usize * (channels + 1)],
+            done: 0,
+            passes: 0,
+            dropped: 0,
+        }
+    }
+
+    /// Samples per pixel taken so far.
+    pub fn samples_done(&self) -> u32 {
+        self.done
+    }
+
+    /// Passes rendered so far.
+    pub fn passes_done(&self) -> u32 {
+        self.passes
+    }
+
+    /// Every sample has been taken.
+    pub fn finished(&self) -> bool {
+        self.done >= self.settings.spp
+    }
+
+    /// Renders the next pass (nothing once finished); `progress` as in
+    /// [`render`].
+    pub fn pass(&mut self, progress: &(dyn Fn(u64) + Sync)) {
+        if self.finished() {
+            return;
+        }
+        let samples = self.done
+            ..self
+                .done
+                .saturating_add(self.pass_spp)
+                .min(self.settings.spp);
+        let crop = self.scene.film.crop_size;
+        let results: Vec<(TileBuffer, u64)> = tiles(crop)
+            .par_iter()
+            .map(|&tile| {
+                let r = render_tile(
+                    self.scene,
+                    self.integrator,
+                    self.settings.seed,
+                    &self.filter,
+                    tile,
+                    self.channels,
+                    samples.clone(),
+                );
+                progress(
+                    u64::from(tile.x1 - tile.x0)
+                        * u64::from(tile.y1 - tile.y0)
+                        * u64::from(samples.end - samples.start),
+                );
+                r
+            })
+            .collect();
+        for (buf, bad) in &results {
+            buf.merge_into(&mut self.sums, crop);
+            self.dropped += bad;
+        }
+        self.done = samples.end;
+        self.passes += 1;
+    }
+
+    /// The image so far: the average of the samples taken.
+    pub fn output(&self) -> RenderOutput {
+        let crop = self.scene.film.crop_size;
+        let channels = self.channels;
+        let data = self
+            .sums
+            .chunks_exact(channels + 1)
+            .flat_map(|px| {
+                let w = px[channels];
+                let inv = if w > 0.0 { 1.0 / w } else { 0.0 };
+                px[..channels].iter().map(move |v| v * inv)
+            })
+            .collect();
+        RenderOutput {
+            image: Framebuffer {
+                width: crop[0],
+                height: crop[1],
+                channels,
+                data,
+            },
+            layers: self.integrator.extra_layers(),
+            dropped_samples: self.dropped,
+        }
     }
 }
 
@@ -104,13 +195,15 @@ fn tiles(crop: [u32; 2]) -> Vec<Tile> {
     out
 }
 
+/// Renders samples `samples` of every pixel of `tile`.
 fn render_tile(
     scene: &Scene,
     integrator: &dyn Integrator,
-    settings: &RenderSettings,
+    seed: u32,
     filter: &FilterTable,
     tile: Tile,
     channels: usize,
+    samples: std::ops::Range<u32>,
 ) -> (TileBuffer, u64) {
     let film = &scene.film;
     let mut buf = TileBuffer::new(tile, filter, channels);
@@ -122,8 +215,8 @@ fn render_tile(
         for x in tile.x0..tile.x1 {
             // Pixel coordinates of the full image (crop offset applied).
             let (fx, fy) = (x + film.crop_offset[0], y + film.crop_offset[1]);
-            for index in 0..settings.spp {
-                let mut stream = scene.sampler.stream(fx, fy, index, settings.seed);
+            for index in samples.clone() {
+                let mut stream = scene.sampler.stream(fx, fy, index, seed);
                 let offset = stream.next_2d();
                 let film_p = Vec2::new(fx as f32, fy as f32) + offset;
                 let u_lens = if scene.camera.needs_lens_sample() {

@@ -54,3 +54,53 @@ fn same_seed_same_image_on_any_thread_count() {
         );
     }
 }
+
+/// A progressive render (passes of 2 samples per pixel, a Gaussian filter
+/// whose splats cross tiles) gives the bit-identical image after each of
+/// its first three passes on 1, 2 and 4 threads; the first pass changes
+/// nothing already there and the second adds to it.
+#[test]
+fn progressive_passes_are_identical_on_any_thread_count() {
+    use yubin_core::render::Progressive;
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.xml");
+    let defines = [
+        ("resx".to_string(), "40".to_string()),
+        ("resy".to_string(), "24".to_string()),
+        ("rfilter".to_string(), "gaussian".to_string()),
+    ];
+    let loaded = load_scene(&scene, &defines).unwrap();
+    let passes = |threads: usize| -> Vec<Vec<f32>> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let settings = RenderSettings { spp: 8, seed: 1 };
+        let mut render = Progressive::new(&loaded.scene, loaded.integrator.as_ref(), settings, 2);
+        (0..3)
+            .map(|_| {
+                pool.install(|| render.pass(&|_| {}));
+                render.output().image.data
+            })
+            .collect()
+    };
+    let one = passes(1);
+    for threads in [2, 4] {
+        let many = passes(threads);
+        for (k, (a, b)) in one.iter().zip(&many).enumerate() {
+            assert!(
+                a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                "pass {k}: 1 and {threads} threads differ"
+            );
+        }
+    }
+    assert_ne!(one[0], one[1], "a pass must add samples");
+    // One pass of all the samples is what `render` gives.
+    let settings = RenderSettings { spp: 2, seed: 1 };
+    let whole = render(
+        &loaded.scene,
+        loaded.integrator.as_ref(),
+        &settings,
+        &|_| {},
+    );
+    assert_eq!(whole.image.data, one[0]);
+}

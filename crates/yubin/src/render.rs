@@ -6,8 +6,8 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::Instant;
-use yubin_core::render::{render, RenderSettings};
+use std::time::{Duration, Instant};
+use yubin_core::render::{render, Progressive, RenderOutput, RenderSettings};
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
 
 /// The built-in demo scene.
@@ -38,6 +38,63 @@ pub struct RenderArgs {
     /// No progress bar and no summary.
     #[arg(short, long)]
     quiet: bool,
+    /// Stop after the last pass that ends within this time (90, 90s, 5m,
+    /// 1h30m) and write the average of the passes done. Without --spp,
+    /// passes go on until the limit.
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+    time_limit: Option<Duration>,
+    /// Write the image so far every SECONDS (rendering in passes).
+    #[arg(long, value_name = "SECONDS", value_parser = parse_duration)]
+    progressive: Option<Duration>,
+    /// Samples per pixel in each pass of a progressive or time-limited
+    /// render.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pass_spp: u32,
+    /// Render only the crop window X,Y,W,H of the film (pixels; Mitsuba's
+    /// crop_offset_x/y, crop_width/height).
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
+    crop: Option<[u32; 4]>,
+}
+
+/// A duration: seconds, or a sequence of numbers with units h, m, s
+/// (`90`, `2.5s`, `5m`, `1h30m`).
+fn parse_duration(s: &str) -> Result<Duration, String> {
+    let bad = || format!("expected a duration such as 90, 90s, 5m or 1h30m, got \"{s}\"");
+    if let Ok(secs) = s.parse::<f64>() {
+        return Duration::try_from_secs_f64(secs).map_err(|_| bad());
+    }
+    let mut total = 0.0;
+    let mut number = String::new();
+    for c in s.chars() {
+        match c {
+            '0'..='9' | '.' => number.push(c),
+            'h' | 'm' | 's' => {
+                let v: f64 = number.parse().map_err(|_| bad())?;
+                total += v * match c {
+                    'h' => 3600.0,
+                    'm' => 60.0,
+                    _ => 1.0,
+                };
+                number.clear();
+            }
+            _ => return Err(bad()),
+        }
+    }
+    if !number.is_empty() || s.is_empty() {
+        return Err(bad());
+    }
+    Duration::try_from_secs_f64(total).map_err(|_| bad())
+}
+
+/// `X,Y,W,H` (non-negative integers).
+fn parse_crop(s: &str) -> Result<[u32; 4], String> {
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|t| t.trim().parse())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected X,Y,W,H (four whole numbers), got \"{s}\""))?;
+    v.try_into()
+        .map_err(|_| format!("expected X,Y,W,H (four whole numbers), got \"{s}\""))
 }
 
 fn parse_define(s: &str) -> Result<(String, String), String> {
@@ -56,11 +113,25 @@ pub fn run(args: RenderArgs) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let load_time = t0.elapsed();
-    let spp = args
-        .spp
-        .unwrap_or_else(|| loaded.scene.sampler.sample_count());
+    let mut loaded = loaded;
+    if let Some(crop) = args.crop {
+        set_crop(&mut loaded, crop)?;
+    }
+    let passes = args.time_limit.is_some() || args.progressive.is_some();
+    if passes && loaded.integrator.particle_tracer().is_some() {
+        bail!("--time-limit and --progressive render in passes, which ptracer does not (it renders all its light paths at once)");
+    }
+    // A time limit without --spp renders until the limit.
+    let spp = match (args.spp, args.time_limit) {
+        (Some(n), _) => n,
+        (None, Some(_)) => u32::MAX,
+        (None, None) => loaded.scene.sampler.sample_count(),
+    };
     if spp == 0 {
         bail!("--spp must be at least 1");
+    }
+    if args.pass_spp == 0 {
+        bail!("--pass-spp must be at least 1");
     }
     let settings = RenderSettings {
         spp,
@@ -75,17 +146,22 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     let pool = pool.build().context("cannot start the worker threads")?;
     let film = &loaded.scene.film;
-    let total = u64::from(film.crop_size[0]) * u64::from(film.crop_size[1]) * u64::from(spp);
-    let bar = progress_bar(total, args.quiet);
-    let done = AtomicU64::new(0);
+    let pixels = u64::from(film.crop_size[0]) * u64::from(film.crop_size[1]);
     let t1 = Instant::now();
-    let out = pool.install(|| {
-        render(&loaded.scene, loaded.integrator.as_ref(), &settings, &|n| {
-            let d = done.fetch_add(n, Ordering::Relaxed) + n;
-            bar.set_position(d);
-        })
-    });
-    bar.finish_and_clear();
+    let (out, samples, passes_done) = if passes {
+        render_in_passes(&pool, &loaded, &settings, &args, &output)?
+    } else {
+        let bar = progress_bar(pixels * u64::from(spp), args.quiet);
+        let done = AtomicU64::new(0);
+        let out = pool.install(|| {
+            render(&loaded.scene, loaded.integrator.as_ref(), &settings, &|n| {
+                let d = done.fetch_add(n, Ordering::Relaxed) + n;
+                bar.set_position(d);
+            })
+        });
+        bar.finish_and_clear();
+        (out, spp, 1)
+    };
     let render_time = t1.elapsed();
     if out.dropped_samples > 0 {
         eprintln!(
@@ -95,16 +171,94 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     write_output(&output, &out).with_context(|| format!("cannot write {}", output.display()))?;
     if !args.quiet {
+        let passes = if passes {
+            format!(" in {passes_done} passes")
+        } else {
+            String::new()
+        };
         eprintln!(
-            "{}: {}x{}, {spp} spp in {:.2} s (load {:.2} s, {:.2} M samples/s)",
+            "{}: {}x{}, {samples} spp{passes} in {:.2} s (load {:.2} s, {:.2} M samples/s)",
             output.display(),
             film.crop_size[0],
             film.crop_size[1],
             render_time.as_secs_f64(),
             load_time.as_secs_f64(),
-            total as f64 / render_time.as_secs_f64() / 1e6
+            (pixels * u64::from(samples)) as f64 / render_time.as_secs_f64() / 1e6
         );
     }
+    Ok(())
+}
+
+/// Renders pass after pass until the samples are taken or the next pass
+/// would end past the time limit, writing the image so far at the
+/// `--progressive` interval; returns the image, the samples per pixel
+/// taken and the passes.
+fn render_in_passes(
+    pool: &rayon::ThreadPool,
+    loaded: &LoadedScene,
+    settings: &RenderSettings,
+    args: &RenderArgs,
+    output: &Path,
+) -> Result<(RenderOutput, u32, u32)> {
+    let start = Instant::now();
+    let mut render = Progressive::new(
+        &loaded.scene,
+        loaded.integrator.as_ref(),
+        *settings,
+        args.pass_spp,
+    );
+    // The bar follows the time limit, else the samples.
+    let bar = match args.time_limit {
+        Some(limit) => progress_bar(limit.as_millis() as u64, args.quiet),
+        None => progress_bar(u64::from(settings.spp), args.quiet),
+    };
+    let mut last_write = Instant::now();
+    let mut longest_pass = Duration::ZERO;
+    while !render.finished() {
+        let t = Instant::now();
+        pool.install(|| render.pass(&|_| {}));
+        longest_pass = longest_pass.max(t.elapsed());
+        let elapsed = start.elapsed();
+        match args.time_limit {
+            Some(limit) => {
+                bar.set_position((elapsed.as_millis() as u64).min(limit.as_millis() as u64))
+            }
+            None => bar.set_position(u64::from(render.samples_done())),
+        }
+        if let Some(every) = args.progressive {
+            if last_write.elapsed() >= every && !render.finished() {
+                write_output(output, &render.output())
+                    .with_context(|| format!("cannot write {}", output.display()))?;
+                last_write = Instant::now();
+            }
+        }
+        if args
+            .time_limit
+            .is_some_and(|limit| elapsed + longest_pass > limit)
+        {
+            break;
+        }
+    }
+    bar.finish_and_clear();
+    Ok((render.output(), render.samples_done(), render.passes_done()))
+}
+
+/// Restricts the film to the crop window `[x, y, w, h]`.
+fn set_crop(loaded: &mut LoadedScene, [x, y, w, h]: [u32; 4]) -> Result<()> {
+    let film = &mut loaded.scene.film;
+    let fits = w > 0
+        && h > 0
+        && x.checked_add(w).is_some_and(|r| r <= film.width)
+        && y.checked_add(h).is_some_and(|b| b <= film.height);
+    if !fits {
+        bail!(
+            "--crop {x},{y},{w},{h}: the window must be non-empty and inside the {}x{} film",
+            film.width,
+            film.height
+        );
+    }
+    film.crop_offset = [x, y];
+    film.crop_size = [w, h];
     Ok(())
 }
 

@@ -1,0 +1,128 @@
+//! Rendering in passes from the command line: `--time-limit` stops within
+//! a pass of its limit and writes the average of the passes done,
+//! `--progressive` renders in passes to the same image as one go, and
+//! `--crop` renders exactly that window of the film (bad windows: exit 1,
+//! nothing written).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+use yubin_scene::image_io::{read_image, ColorHandling};
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("yubin-passes-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs `yubin render` on the built-in Cornell box (box filter, 64 × 48)
+/// with `args`; returns the exit status and stderr.
+fn yubin(dir: &Path, args: &[&str]) -> (Option<i32>, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_yubin"))
+        .current_dir(dir)
+        .args([
+            "render",
+            "-D",
+            "rfilter=box",
+            "-D",
+            "resx=64",
+            "-D",
+            "resy=48",
+        ])
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// The number after "in" and before " passes" in a summary line.
+fn passes_in(summary: &str) -> u32 {
+    let before = summary.split(" passes").next().unwrap();
+    before.rsplit(' ').next().unwrap().parse().unwrap()
+}
+
+#[test]
+fn time_limit_stops_within_a_pass() {
+    let d = dir("time");
+    let t = Instant::now();
+    let (code, stderr) = yubin(&d, &["--time-limit", "1", "-o", "t.exr"]);
+    let wall = t.elapsed().as_secs_f64();
+    assert_eq!(code, Some(0), "{stderr}");
+    let passes = passes_in(&stderr);
+    assert!(passes >= 2, "{stderr}");
+    // A pass of 64 × 48 pixels at 1 spp takes milliseconds: the render
+    // ends within the limit plus start-up, not a pass beyond it.
+    assert!(wall < 2.5, "took {wall} s: {stderr}");
+    let img = read_image(&d.join("t.exr"), ColorHandling::Raw).unwrap();
+    assert!(img.data.iter().all(|v| v.is_finite()) && img.data.iter().any(|v| *v > 0.0));
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn progressive_passes_give_the_image_of_one_go() {
+    let d = dir("progressive");
+    let (code, stderr) = yubin(&d, &["--spp", "6", "-o", "one.exr"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let (code, stderr) = yubin(
+        &d,
+        &[
+            "--spp",
+            "6",
+            "--progressive",
+            "0",
+            "--pass-spp",
+            "2",
+            "-o",
+            "passes.exr",
+        ],
+    );
+    assert_eq!(code, Some(0), "{stderr}");
+    assert_eq!(passes_in(&stderr), 3, "{stderr}");
+    let one = read_image(&d.join("one.exr"), ColorHandling::Raw).unwrap();
+    let passes = read_image(&d.join("passes.exr"), ColorHandling::Raw).unwrap();
+    // The same samples, summed in another order.
+    let worst = one
+        .data
+        .iter()
+        .zip(&passes.data)
+        .map(|(a, b)| (a - b).abs() / a.abs().max(1e-3))
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-4, "relative difference {worst}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn crop_renders_that_window_of_the_film() {
+    let d = dir("crop");
+    let (code, stderr) = yubin(&d, &["--spp", "2", "-o", "full.exr"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let (code, stderr) = yubin(
+        &d,
+        &["--spp", "2", "--crop", "10,5,20,12", "-o", "crop.exr"],
+    );
+    assert_eq!(code, Some(0), "{stderr}");
+    let full = read_image(&d.join("full.exr"), ColorHandling::Raw).unwrap();
+    let crop = read_image(&d.join("crop.exr"), ColorHandling::Raw).unwrap();
+    assert_eq!((crop.width, crop.height), (20, 12));
+    let c = full.channels;
+    for y in 0..12 {
+        for x in 0..20 {
+            let a = &full.data[((y + 5) * full.width + x + 10) * c..][..3];
+            let b = &crop.data[(y * crop.width + x) * crop.channels..][..3];
+            assert_eq!(a, b, "pixel ({x}, {y}) of the window");
+        }
+    }
+    for bad in ["60,0,10,10", "0,0,0,4", "1,2,3"] {
+        let (code, stderr) = yubin(&d, &["--crop", bad, "-o", "bad.exr"]);
+        assert!(
+            code == Some(1) || code == Some(2),
+            "{bad}: {code:?} {stderr}"
+        );
+        assert!(stderr.contains("--crop"), "{bad}: {stderr}");
+        assert!(!d.join("bad.exr").exists(), "{bad}: an image was written");
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
