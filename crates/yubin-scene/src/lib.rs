@@ -12,6 +12,7 @@ pub mod error;
 pub mod image_io;
 pub mod mesh;
 mod params;
+pub mod tonemap;
 pub mod volume_io;
 pub mod xml;
 

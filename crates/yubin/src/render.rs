@@ -1,6 +1,6 @@
 //! `yubin render`.
 
-use crate::output::write_output;
+use crate::output::{write_output, Display};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 use yubin_core::render::{render, Progressive, RenderOutput, RenderSettings};
+use yubin_scene::tonemap::ToneCurve;
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
 
 /// The built-in demo scene.
@@ -54,6 +55,27 @@ pub struct RenderArgs {
     /// crop_offset_x/y, crop_width/height).
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     crop: Option<[u32; 4]>,
+    /// Exposure of PNG output in stops (EXR stays scene-linear).
+    #[arg(
+        long,
+        value_name = "EV",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    exposure: f32,
+    /// Tone curve of PNG output: srgb (clip) or filmic (Hable).
+    #[arg(long, value_name = "CURVE", default_value = "srgb", value_parser = parse_curve)]
+    tonemap: ToneCurve,
+}
+
+fn parse_curve(s: &str) -> Result<ToneCurve, String> {
+    ToneCurve::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = yubin_scene::tonemap::CURVES
+            .iter()
+            .map(|(n, _)| *n)
+            .collect();
+        format!("unknown tone curve \"{s}\" (known: {})", names.join(", "))
+    })
 }
 
 /// A duration: seconds, or a sequence of numbers with units h, m, s
@@ -133,6 +155,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.pass_spp == 0 {
         bail!("--pass-spp must be at least 1");
     }
+    if !args.exposure.is_finite() {
+        bail!("--exposure must be a finite number of stops");
+    }
     let settings = RenderSettings {
         spp,
         seed: args.seed.unwrap_or(loaded.seed),
@@ -169,7 +194,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
             out.dropped_samples
         );
     }
-    write_output(&output, &out).with_context(|| format!("cannot write {}", output.display()))?;
+    write_output(&output, &out, &display(&args))
+        .with_context(|| format!("cannot write {}", output.display()))?;
     if !args.quiet {
         let passes = if passes {
             format!(" in {passes_done} passes")
@@ -227,7 +253,7 @@ fn render_in_passes(
         }
         if let Some(every) = args.progressive {
             if last_write.elapsed() >= every && !render.finished() {
-                write_output(output, &render.output())
+                write_output(output, &render.output(), &display(args))
                     .with_context(|| format!("cannot write {}", output.display()))?;
                 last_write = Instant::now();
             }
@@ -241,6 +267,14 @@ fn render_in_passes(
     }
     bar.finish_and_clear();
     Ok((render.output(), render.samples_done(), render.passes_done()))
+}
+
+/// How PNG output shows the image.
+fn display(args: &RenderArgs) -> Display {
+    Display {
+        exposure: args.exposure,
+        curve: args.tonemap,
+    }
 }
 
 /// Restricts the film to the crop window `[x, y, w, h]`.
