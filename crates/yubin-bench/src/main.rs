@@ -13,6 +13,7 @@
 //! - [`samplers`]: each sampler's cost per sample, and a render with each.
 //! - [`media`]: a homogeneous and a heterogeneous medium against Mitsuba 3
 //!   (time to equal error), and the majorant grid's effect.
+//! - [`adaptive`]: adaptive against uniform sampling at equal samples.
 //! - [`smoke`]: writes the procedural smoke plume grid of `scenes/smoke.xml`.
 //! - [`envmap`]: time to build a 4096 × 2048 environment map's sampling
 //!   distribution.
@@ -20,6 +21,7 @@
 //!   BVH against Intel Embree in the same process, on the meshes and rays
 //!   of `../shared/tools/raybench` (issue 3). Run `setup.sh` first.
 
+mod adaptive;
 mod alloc;
 mod cornell;
 mod envmap;
@@ -43,6 +45,7 @@ const USAGE: &str = "usage:
   yubin-bench samplers [--reps N]
   yubin-bench smoke-vol PATH [--res X,Y,Z]
   yubin-bench media [--spp N] [--ref-spp N] [--reps N]
+  yubin-bench adaptive [--ref-spp N] [--max-spp N]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
                    [--min-passes N] [--max-passes N] [--out FILE.md]
@@ -63,6 +66,7 @@ fn main() -> Result<()> {
         Some("samplers") => samplers::run(&args[1..]),
         Some("smoke-vol") => smoke::run(&args[1..]),
         Some("media") => media::run(&args[1..]),
+        Some("adaptive") => adaptive::run(&args[1..]),
         Some("help") => {
             println!("{USAGE}");
             Ok(())

@@ -6,7 +6,7 @@
 use crate::film::{Framebuffer, Tile, TileBuffer};
 use crate::filter::FilterTable;
 use crate::integrator::{Integrator, Layer};
-use crate::Scene;
+use crate::{Rgb, Scene};
 use glam::Vec2;
 use rayon::prelude::*;
 
@@ -57,10 +57,67 @@ pub struct Progressive<'a> {
     channels: usize,
     /// Per pixel: the weighted sums of each channel, then the weight.
     sums: Vec<f32>,
-    /// Samples per pixel taken so far.
+    /// Samples per pixel taken so far (by the pixels still sampling).
     done: u32,
     passes: u32,
     dropped: u64,
+    /// Adaptive sampling, when asked for.
+    adaptive: Option<Adaptive>,
+    /// Per pixel: the luminance sums of its even and odd samples.
+    halves: Vec<Halves>,
+    /// Per pixel: still sampling.
+    active: Vec<bool>,
+}
+
+/// Adaptive sampling: a pixel stops once the relative error of its mean,
+/// estimated from two interleaved half-buffers (even and odd samples, as
+/// Cycles does), is below `threshold` in its whole 3 × 3 neighbourhood,
+/// after at least `min_spp` samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Adaptive {
+    /// Relative error of a pixel's mean at which it stops.
+    pub threshold: f32,
+    /// Samples a pixel takes before it may stop.
+    pub min_spp: u32,
+}
+
+/// A pixel's own samples' luminance, split by the parity of their index.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Halves {
+    sum: [f32; 2],
+    count: [u32; 2],
+}
+
+impl Halves {
+    fn add(&mut self, index: u32, luminance: f32) {
+        let half = (index & 1) as usize;
+        self.sum[half] += luminance;
+        self.count[half] += 1;
+    }
+
+    fn merge(&mut self, o: &Halves) {
+        for h in 0..2 {
+            self.sum[h] += o.sum[h];
+            self.count[h] += o.count[h];
+        }
+    }
+
+    fn samples(&self) -> u32 {
+        self.count[0] + self.count[1]
+    }
+
+    /// The estimated relative error of the pixel's mean: the standard
+    /// error |A − B| / 2 of two half-means over the mean (with a floor of
+    /// 0.01 for dark pixels); infinite before both halves have samples.
+    fn relative_error(&self) -> f32 {
+        if self.count[0] == 0 || self.count[1] == 0 {
+            return f32::INFINITY;
+        }
+        let a = self.sum[0] / self.count[0] as f32;
+        let b = self.sum[1] / self.count[1] as f32;
+        let mean = (self.sum[0] + self.sum[1]) / self.samples() as f32;
+        (a - b).abs() / (2.0 * (mean.abs() + 0.01))
+    }
 }
 
 impl<'a> Progressive<'a> {
@@ -85,6 +142,59 @@ impl<'a> Progressive<'a> {
             done: 0,
             passes: 0,
             dropped: 0,
+            adaptive: None,
+            halves: Vec::new(),
+            active: Vec::new(),
+        }
+    }
+
+    /// The same render with adaptive sampling: `settings.spp` becomes the
+    /// most a pixel takes.
+    pub fn with_adaptive(mut self, adaptive: Adaptive) -> Self {
+        let pixels = self.scene.film.crop_size[0] as usize * self.scene.film.crop_size[1] as usize;
+        self.adaptive = Some(adaptive);
+        self.halves = vec![Halves::default(); pixels];
+        self.active = vec![true; pixels];
+        self
+    }
+
+    /// Samples taken over the whole image.
+    pub fn total_samples(&self) -> u64 {
+        if self.adaptive.is_some() {
+            self.halves.iter().map(|h| u64::from(h.samples())).sum()
+        } else {
+            let crop = self.scene.film.crop_size;
+            u64::from(crop[0]) * u64::from(crop[1]) * u64::from(self.done)
+        }
+    }
+
+    /// After a pass: pixels whose whole neighbourhood has converged stop.
+    fn update_active(&mut self) {
+        let Some(adaptive) = self.adaptive else {
+            return;
+        };
+        let [w, h] = self.scene.film.crop_size.map(|v| v as usize);
+        let error: Vec<f32> = self
+            .halves
+            .iter()
+            .map(|p| {
+                if p.samples() < adaptive.min_spp {
+                    f32::INFINITY
+                } else {
+                    p.relative_error()
+                }
+            })
+            .collect();
+        for y in 0..h {
+            for x in 0..w {
+                let worst = (y.saturating_sub(1)..(y + 2).min(h))
+                    .flat_map(|ny| (x.saturating_sub(1)..(x + 2).min(w)).map(move |nx| ny * w + nx))
+                    .map(|i| error[i])
+                    .fold(0.0f32, f32::max);
+                if worst < adaptive.threshold {
+                    self.active[y * w + x] = false;
+                }
+            }
         }
     }
 
@@ -98,9 +208,10 @@ impl<'a> Progressive<'a> {
         self.passes
     }
 
-    /// Every sample has been taken.
+    /// Every sample has been taken (or, adaptively, every pixel stopped).
     pub fn finished(&self) -> bool {
         self.done >= self.settings.spp
+            || (self.adaptive.is_some() && !self.active.iter().any(|&a| a))
     }
 
     /// Renders the next pass (nothing once finished); `progress` as in
@@ -115,18 +226,20 @@ impl<'a> Progressive<'a> {
                 .saturating_add(self.pass_spp)
                 .min(self.settings.spp);
         let crop = self.scene.film.crop_size;
-        let results: Vec<(TileBuffer, u64)> = tiles(crop)
+        let active = (!self.active.is_empty()).then_some(self.active.as_slice());
+        let results: Vec<TileResult> = tiles(crop)
             .par_iter()
             .map(|&tile| {
-                let r = render_tile(
-                    self.scene,
-                    self.integrator,
-                    self.settings.seed,
-                    &self.filter,
-                    tile,
-                    self.channels,
-                    samples.clone(),
-                );
+                let job = TileJob {
+                    scene: self.scene,
+                    integrator: self.integrator,
+                    seed: self.settings.seed,
+                    filter: &self.filter,
+                    channels: self.channels,
+                    samples: samples.clone(),
+                    active,
+                };
+                let r = job.render(tile);
                 progress(
                     u64::from(tile.x1 - tile.x0)
                         * u64::from(tile.y1 - tile.y0)
@@ -135,19 +248,26 @@ impl<'a> Progressive<'a> {
                 r
             })
             .collect();
-        for (buf, bad) in &results {
-            buf.merge_into(&mut self.sums, crop);
-            self.dropped += bad;
+        for r in &results {
+            r.buffer.merge_into(&mut self.sums, crop);
+            self.dropped += r.dropped;
+            for (y, row) in (r.tile.y0..r.tile.y1).zip(r.halves.chunks(r.tile.width())) {
+                let start = y as usize * crop[0] as usize + r.tile.x0 as usize;
+                for (h, add) in self.halves[start..start + row.len()].iter_mut().zip(row) {
+                    h.merge(add);
+                }
+            }
         }
         self.done = samples.end;
         self.passes += 1;
+        self.update_active();
     }
 
     /// The image so far: the average of the samples taken.
     pub fn output(&self) -> RenderOutput {
         let crop = self.scene.film.crop_size;
         let channels = self.channels;
-        let data = self
+        let data: Vec<f32> = self
             .sums
             .chunks_exact(channels + 1)
             .flat_map(|px| {
@@ -156,6 +276,19 @@ impl<'a> Progressive<'a> {
                 px[..channels].iter().map(move |v| v * inv)
             })
             .collect();
+        let mut layers = self.integrator.extra_layers();
+        let (data, channels) = if self.adaptive.is_some() {
+            // Where the samples went: a `spp` layer.
+            layers.push(Layer::new("spp", &["Y"]));
+            let with_counts = data
+                .chunks_exact(channels)
+                .zip(&self.halves)
+                .flat_map(|(px, h)| px.iter().copied().chain([h.samples() as f32]))
+                .collect();
+            (with_counts, channels + 1)
+        } else {
+            (data, channels)
+        };
         RenderOutput {
             image: Framebuffer {
                 width: crop[0],
@@ -163,7 +296,7 @@ impl<'a> Progressive<'a> {
                 channels,
                 data,
             },
-            layers: self.integrator.extra_layers(),
+            layers,
             dropped_samples: self.dropped,
         }
     }
@@ -195,47 +328,88 @@ fn tiles(crop: [u32; 2]) -> Vec<Tile> {
     out
 }
 
-/// Renders samples `samples` of every pixel of `tile`.
-fn render_tile(
-    scene: &Scene,
-    integrator: &dyn Integrator,
+/// What a pass asks of each tile.
+struct TileJob<'a> {
+    scene: &'a Scene,
+    integrator: &'a dyn Integrator,
     seed: u32,
-    filter: &FilterTable,
-    tile: Tile,
+    filter: &'a FilterTable,
     channels: usize,
+    /// The sample indices each pixel takes.
     samples: std::ops::Range<u32>,
-) -> (TileBuffer, u64) {
-    let film = &scene.film;
-    let mut buf = TileBuffer::new(tile, filter, channels);
-    // One buffer per tile (not per sample), sized to the integrator.
-    let mut values = vec![0.0f32; channels];
-    let values = values.as_mut_slice();
-    let mut dropped = 0;
-    for y in tile.y0..tile.y1 {
-        for x in tile.x0..tile.x1 {
-            // Pixel coordinates of the full image (crop offset applied).
-            let (fx, fy) = (x + film.crop_offset[0], y + film.crop_offset[1]);
-            for index in samples.clone() {
-                let mut stream = scene.sampler.stream(fx, fy, index, seed);
-                let offset = stream.next_2d();
-                let film_p = Vec2::new(fx as f32, fy as f32) + offset;
-                let u_lens = if scene.camera.needs_lens_sample() {
-                    stream.next_2d()
-                } else {
-                    Vec2::ZERO
-                };
-                values.fill(0.0);
-                // A ray the lens stops (cat's eye) counts as black.
-                if let Some(ray) = scene.camera.generate_ray(film_p, u_lens) {
-                    integrator.sample(scene, &ray, &mut stream, values);
+    /// Per pixel of the crop window, whether it still samples (adaptive
+    /// sampling; all do without).
+    active: Option<&'a [bool]>,
+}
+
+/// A rendered tile: its buffer, its non-finite samples, and per pixel
+/// (row by row) its samples' luminance halves.
+struct TileResult {
+    tile: Tile,
+    buffer: TileBuffer,
+    dropped: u64,
+    halves: Vec<Halves>,
+}
+
+impl TileJob<'_> {
+    /// Renders the job's samples of every active pixel of `tile`.
+    fn render(&self, tile: Tile) -> TileResult {
+        let scene = self.scene;
+        let film = &scene.film;
+        let mut buffer = TileBuffer::new(tile, self.filter, self.channels);
+        // One buffer per tile (not per sample), sized to the integrator.
+        let mut values = vec![0.0f32; self.channels];
+        let values = values.as_mut_slice();
+        let mut dropped = 0;
+        let track = self.active.is_some();
+        let mut halves = vec![
+            Halves::default();
+            if track {
+                tile.width() * tile.height()
+            } else {
+                0
+            }
+        ];
+        for y in tile.y0..tile.y1 {
+            for x in tile.x0..tile.x1 {
+                let pixel = y as usize * film.crop_size[0] as usize + x as usize;
+                if self.active.is_some_and(|a| !a[pixel]) {
+                    continue;
                 }
-                if values.iter().all(|v| v.is_finite()) {
-                    buf.splat(filter, Vec2::new(x as f32, y as f32) + offset, values);
-                } else {
-                    dropped += 1;
+                // Pixel coordinates of the full image (crop offset applied).
+                let (fx, fy) = (x + film.crop_offset[0], y + film.crop_offset[1]);
+                for index in self.samples.clone() {
+                    let mut stream = scene.sampler.stream(fx, fy, index, self.seed);
+                    let offset = stream.next_2d();
+                    let film_p = Vec2::new(fx as f32, fy as f32) + offset;
+                    let u_lens = if scene.camera.needs_lens_sample() {
+                        stream.next_2d()
+                    } else {
+                        Vec2::ZERO
+                    };
+                    values.fill(0.0);
+                    // A ray the lens stops (cat's eye) counts as black.
+                    if let Some(ray) = scene.camera.generate_ray(film_p, u_lens) {
+                        self.integrator.sample(scene, &ray, &mut stream, values);
+                    }
+                    if values.iter().all(|v| v.is_finite()) {
+                        buffer.splat(self.filter, Vec2::new(x as f32, y as f32) + offset, values);
+                        if track {
+                            let i = (y - tile.y0) as usize * tile.width() + (x - tile.x0) as usize;
+                            let lum = crate::spectrum::luminance(Rgb::from_slice(&values[..3]));
+                            halves[i].add(index, lum);
+                        }
+                    } else {
+                        dropped += 1;
+                    }
                 }
             }
         }
+        TileResult {
+            tile,
+            buffer,
+            dropped,
+            halves,
+        }
     }
-    (buf, dropped)
 }

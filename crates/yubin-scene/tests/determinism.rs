@@ -104,3 +104,59 @@ fn progressive_passes_are_identical_on_any_thread_count() {
     );
     assert_eq!(whole.image.data, one[0]);
 }
+
+/// Adaptive sampling is deterministic (the same image and `spp` layer on
+/// 1, 2 and 4 threads), stops some pixels before the maximum, keeps every
+/// pixel at the minimum at least, and reports the counts in its layer.
+#[test]
+fn adaptive_sampling_is_identical_on_any_thread_count() {
+    use yubin_core::render::{Adaptive, Progressive};
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.xml");
+    let defines = [
+        ("resx".to_string(), "32".to_string()),
+        ("resy".to_string(), "24".to_string()),
+    ];
+    let loaded = load_scene(&scene, &defines).unwrap();
+    let adaptive = Adaptive {
+        threshold: 0.1,
+        min_spp: 8,
+    };
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let settings = RenderSettings { spp: 128, seed: 2 };
+        let mut render = Progressive::new(&loaded.scene, loaded.integrator.as_ref(), settings, 4)
+            .with_adaptive(adaptive);
+        while !render.finished() {
+            pool.install(|| render.pass(&|_| {}));
+        }
+        render.output()
+    };
+    let one = run(1);
+    assert_eq!(one.layers.last().map(|l| l.name.as_str()), Some("spp"));
+    let counts: Vec<f32> = one
+        .image
+        .data
+        .chunks_exact(one.image.channels)
+        .map(|px| px[px.len() - 1])
+        .collect();
+    assert!(counts.iter().all(|n| (8.0..=128.0).contains(n)), "{counts:?}");
+    assert!(counts.iter().any(|&n| n < 128.0), "no pixel stopped");
+    assert!(
+        counts.iter().any(|&n| n > 8.0),
+        "every pixel stopped at the minimum"
+    );
+    for threads in [2, 4] {
+        let many = run(threads);
+        assert!(
+            one.image
+                .data
+                .iter()
+                .zip(&many.image.data)
+                .all(|(a, b)| a.to_bits() == b.to_bits()),
+            "1 and {threads} threads differ"
+        );
+    }
+}

@@ -7,7 +7,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
-use yubin_core::render::{render, Progressive, RenderOutput, RenderSettings};
+use yubin_core::render::{render, Adaptive, Progressive, RenderOutput, RenderSettings};
 use yubin_scene::tonemap::ToneCurve;
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
 
@@ -55,6 +55,14 @@ pub struct RenderArgs {
     /// crop_offset_x/y, crop_width/height).
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     crop: Option<[u32; 4]>,
+    /// Adaptive sampling: a pixel stops once the estimated relative error
+    /// of its mean falls below THRESHOLD (e.g. 0.01), with at most --spp
+    /// samples; adds an `spp` layer to EXR output.
+    #[arg(long, value_name = "THRESHOLD")]
+    adaptive: Option<f32>,
+    /// Samples every pixel takes before adaptive sampling may stop it.
+    #[arg(long, value_name = "N", default_value_t = 16)]
+    adaptive_min: u32,
     /// Exposure of PNG output in stops (EXR stays scene-linear).
     #[arg(
         long,
@@ -139,9 +147,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if let Some(crop) = args.crop {
         set_crop(&mut loaded, crop)?;
     }
-    let passes = args.time_limit.is_some() || args.progressive.is_some();
+    let passes = args.time_limit.is_some() || args.progressive.is_some() || args.adaptive.is_some();
     if passes && loaded.integrator.particle_tracer().is_some() {
-        bail!("--time-limit and --progressive render in passes, which ptracer does not (it renders all its light paths at once)");
+        bail!("--time-limit, --progressive and --adaptive render in passes, which ptracer does not (it renders all its light paths at once)");
+    }
+    if let Some(t) = args.adaptive {
+        if !(t > 0.0 && t.is_finite()) {
+            bail!("--adaptive needs a positive threshold (a relative error such as 0.01), not {t}");
+        }
     }
     // A time limit without --spp renders until the limit.
     let spp = match (args.spp, args.time_limit) {
@@ -173,7 +186,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let film = &loaded.scene.film;
     let pixels = u64::from(film.crop_size[0]) * u64::from(film.crop_size[1]);
     let t1 = Instant::now();
-    let (out, samples, passes_done) = if passes {
+    let (out, total_samples, passes_done) = if passes {
         render_in_passes(&pool, &loaded, &settings, &args, &output)?
     } else {
         let bar = progress_bar(pixels * u64::from(spp), args.quiet);
@@ -185,7 +198,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             })
         });
         bar.finish_and_clear();
-        (out, spp, 1)
+        (out, pixels * u64::from(spp), 1)
     };
     let render_time = t1.elapsed();
     if out.dropped_samples > 0 {
@@ -202,14 +215,19 @@ pub fn run(args: RenderArgs) -> Result<()> {
         } else {
             String::new()
         };
+        let spp = if args.adaptive.is_some() {
+            format!("{:.1} spp on average", total_samples as f64 / pixels as f64)
+        } else {
+            format!("{} spp", total_samples / pixels.max(1))
+        };
         eprintln!(
-            "{}: {}x{}, {samples} spp{passes} in {:.2} s (load {:.2} s, {:.2} M samples/s)",
+            "{}: {}x{}, {spp}{passes} in {:.2} s (load {:.2} s, {:.2} M samples/s)",
             output.display(),
             film.crop_size[0],
             film.crop_size[1],
             render_time.as_secs_f64(),
             load_time.as_secs_f64(),
-            (pixels * u64::from(samples)) as f64 / render_time.as_secs_f64() / 1e6
+            total_samples as f64 / render_time.as_secs_f64() / 1e6
         );
     }
     Ok(())
@@ -217,15 +235,15 @@ pub fn run(args: RenderArgs) -> Result<()> {
 
 /// Renders pass after pass until the samples are taken or the next pass
 /// would end past the time limit, writing the image so far at the
-/// `--progressive` interval; returns the image, the samples per pixel
-/// taken and the passes.
+/// `--progressive` interval; returns the image, the samples taken over
+/// the image and the passes.
 fn render_in_passes(
     pool: &rayon::ThreadPool,
     loaded: &LoadedScene,
     settings: &RenderSettings,
     args: &RenderArgs,
     output: &Path,
-) -> Result<(RenderOutput, u32, u32)> {
+) -> Result<(RenderOutput, u64, u32)> {
     let start = Instant::now();
     let mut render = Progressive::new(
         &loaded.scene,
@@ -233,6 +251,12 @@ fn render_in_passes(
         *settings,
         args.pass_spp,
     );
+    if let Some(threshold) = args.adaptive {
+        render = render.with_adaptive(Adaptive {
+            threshold,
+            min_spp: args.adaptive_min,
+        });
+    }
     // The bar follows the time limit, else the samples.
     let bar = match args.time_limit {
         Some(limit) => progress_bar(limit.as_millis() as u64, args.quiet),
@@ -266,7 +290,11 @@ fn render_in_passes(
         }
     }
     bar.finish_and_clear();
-    Ok((render.output(), render.samples_done(), render.passes_done()))
+    Ok((
+        render.output(),
+        render.total_samples(),
+        render.passes_done(),
+    ))
 }
 
 /// How PNG output shows the image.

@@ -72,6 +72,18 @@ pub struct Tile {
     pub y1: u32,
 }
 
+impl Tile {
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        (self.x1 - self.x0) as usize
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        (self.y1 - self.y0) as usize
+    }
+}
+
 /// Filter-weighted accumulation for one tile, with a margin wide enough
 /// for every pixel a sample in the tile can reach.
 #[derive(Clone, Debug)]
