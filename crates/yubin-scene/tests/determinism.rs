@@ -142,7 +142,10 @@ fn adaptive_sampling_is_identical_on_any_thread_count() {
         .chunks_exact(one.image.channels)
         .map(|px| px[px.len() - 1])
         .collect();
-    assert!(counts.iter().all(|n| (8.0..=128.0).contains(n)), "{counts:?}");
+    assert!(
+        counts.iter().all(|n| (8.0..=128.0).contains(n)),
+        "{counts:?}"
+    );
     assert!(counts.iter().any(|&n| n < 128.0), "no pixel stopped");
     assert!(
         counts.iter().any(|&n| n > 8.0),
