@@ -332,12 +332,33 @@ fn check_output_format(path: &Path) -> Result<()> {
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     match ext.as_deref() {
-        Some("exr" | "png") => Ok(()),
+        Some("exr" | "png") => {}
         _ => bail!(
             "{}: unsupported output format (supported extensions: .exr, .png)",
             path.display()
         ),
     }
+    check_writable_dir(path)
+}
+
+/// Fails before rendering when the output's directory cannot take a new
+/// file (missing, not a directory, read-only): a probe file is created
+/// there and removed.
+fn check_writable_dir(path: &Path) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let probe = dir.join(format!(".yubin-write-test-{}", std::process::id()));
+    std::fs::File::create(&probe).with_context(|| {
+        format!(
+            "{}: cannot write into {} (it must be an existing, writable directory)",
+            path.display(),
+            dir.display()
+        )
+    })?;
+    std::fs::remove_file(&probe).ok();
+    Ok(())
 }
 
 fn load(args: &RenderArgs) -> Result<(LoadedScene, PathBuf)> {

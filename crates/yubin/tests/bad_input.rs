@@ -565,3 +565,19 @@ fn media_errors_name_the_file_and_line() {
         fails_at_line(&dir, &xml, line_needle, needles);
     }
 }
+
+/// An output directory that does not exist is an error before rendering
+/// starts, naming it; nothing is written.
+#[test]
+fn unwritable_output_directory_fails_before_rendering() {
+    let dir = TempDir::new("unwritable_output");
+    dir.write("scene.xml", scene(SPHERE));
+    let before = dir.listing();
+    let stderr = expect_failure(
+        &dir,
+        &["render", "scene.xml", "-o", "missing/out.exr", "--quiet"],
+        1,
+    );
+    assert_mentions(&stderr, &["missing", "writable directory"]);
+    assert_eq!(dir.listing(), before);
+}

@@ -1,5 +1,6 @@
 //! Rendering in passes from the command line: `--time-limit` stops within
-//! a pass of its limit and writes the average of the passes done,
+//! a pass of its limit and writes the average of the passes done (an
+//! unbiased image: a Z-test against a longer render),
 //! `--progressive` renders in passes to the same image as one go, and
 //! `--crop` renders exactly that window of the film (bad windows: exit 1,
 //! nothing written).
@@ -124,5 +125,74 @@ fn crop_renders_that_window_of_the_film() {
         assert!(stderr.contains("--crop"), "{bad}: {stderr}");
         assert!(!d.join("bad.exr").exists(), "{bad}: an image was written");
     }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// A small scene under `moment` (mean and second moment per pixel).
+const MOMENT_SCENE: &str = r#"<scene version="3.0.0">
+<integrator type="moment"><integrator type="path"><integer name="max_depth" value="4"/></integrator></integrator>
+<sensor type="perspective"><float name="fov" value="45"/>
+  <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+  <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="16"/><rfilter type="box"/></film>
+</sensor>
+<emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>
+<emitter type="point"><point name="position" value="2, 3, 2"/><rgb name="intensity" value="10"/></emitter>
+<shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.4, 0.2"/></bsdf></shape>
+<shape type="rectangle"><transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/><translate y="-1"/></transform></shape>
+</scene>"#;
+
+/// The time-limited image is the mean of the samples it took: Mitsuba's
+/// per-pixel Z-test against a 4096-spp render of the same scene (its
+/// per-sample variance from the second moment) passes, and a 5 % brighter
+/// image fails it.
+#[test]
+fn time_limited_image_is_unbiased() {
+    use yubin_core::testing::ztest::z_test;
+    let d = dir("unbiased");
+    std::fs::write(d.join("m.xml"), MOMENT_SCENE).unwrap();
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_yubin"))
+            .current_dir(&d)
+            .args(["render", "m.xml"])
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{stderr}");
+        stderr
+    };
+    let summary = run(&["--time-limit", "0.3", "--pass-spp", "8", "-o", "t.exr"]);
+    // "t.exr: 24x16, N spp in K passes in ..."
+    let spp: u32 = summary
+        .split(" spp")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no spp in {summary}"));
+    assert!(spp >= 8 && spp < 4096, "{summary}");
+    // The reference in this process: RGB, then the second moment.
+    let loaded = yubin_scene::load_scene(&d.join("m.xml"), &[]).unwrap();
+    let settings = yubin_core::render::RenderSettings { spp: 4096, seed: 7 };
+    let out = yubin_core::render::render(
+        &loaded.scene,
+        loaded.integrator.as_ref(),
+        &settings,
+        &|_| {},
+    );
+    let channels = out.image.channels;
+    let (mut mean, mut var) = (Vec::new(), Vec::new());
+    for px in out.image.data.chunks_exact(channels) {
+        for c in 0..3 {
+            mean.push(px[c]);
+            var.push((px[3 + c] - px[c] * px[c]).max(0.0));
+        }
+    }
+    let limited = read_image(&d.join("t.exr"), ColorHandling::Raw).unwrap();
+    assert_eq!(limited.channels, 3);
+    let test = limited.data.clone();
+    let report = z_test(&test, spp, &mean, &var, 0.01);
+    assert!(report.passed, "{report:?}");
+    let brighter: Vec<f32> = test.iter().map(|v| v * 1.05).collect();
+    assert!(!z_test(&brighter, spp, &mean, &var, 0.01).passed);
     std::fs::remove_dir_all(&d).ok();
 }
