@@ -169,7 +169,7 @@ fn time_limited_image_is_unbiased() {
         .and_then(|s| s.rsplit(' ').next())
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no spp in {summary}"));
-    assert!(spp >= 8 && spp < 4096, "{summary}");
+    assert!((8..4096).contains(&spp), "{summary}");
     // The reference in this process: RGB, then the second moment.
     let loaded = yubin_scene::load_scene(&d.join("m.xml"), &[]).unwrap();
     let settings = yubin_core::render::RenderSettings { spp: 4096, seed: 7 };
