@@ -7,6 +7,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
+use yubin_core::integrator::{DenoiserGuides, Guide, PathIntegrator};
 use yubin_core::render::{render, Adaptive, Progressive, RenderOutput, RenderSettings};
 use yubin_scene::tonemap::ToneCurve;
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
@@ -63,6 +64,11 @@ pub struct RenderArgs {
     /// Samples every pixel takes before adaptive sampling may stop it.
     #[arg(long, value_name = "N", default_value_t = 16)]
     adaptive_min: u32,
+    /// Denoiser guide layers for the EXR, any of albedo,normal,depth:
+    /// albedo and normal of the first surface that is not purely specular
+    /// (as Intel Open Image Denoise asks), depth of the first hit.
+    #[arg(long, value_name = "LIST", value_parser = parse_guides)]
+    aov: Option<GuideList>,
     /// Exposure of PNG output in stops (EXR stays scene-linear).
     #[arg(
         long,
@@ -74,6 +80,27 @@ pub struct RenderArgs {
     /// Tone curve of PNG output: srgb (clip) or filmic (Hable).
     #[arg(long, value_name = "CURVE", default_value = "srgb", value_parser = parse_curve)]
     tonemap: ToneCurve,
+}
+
+/// The denoiser guides `--aov` asks for (a newtype: clap reads a `Vec`
+/// as repeated values).
+#[derive(Clone, Debug)]
+struct GuideList(Vec<Guide>);
+
+fn parse_guides(s: &str) -> Result<GuideList, String> {
+    s.split(',')
+        .map(|name| {
+            let name = name.trim();
+            Guide::ALL
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, g)| *g)
+                .ok_or_else(|| {
+                    format!("unknown guide layer \"{name}\" (known: albedo, normal, depth)")
+                })
+        })
+        .collect::<Result<_, _>>()
+        .map(GuideList)
 }
 
 fn parse_curve(s: &str) -> Result<ToneCurve, String> {
@@ -146,6 +173,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let mut loaded = loaded;
     if let Some(crop) = args.crop {
         set_crop(&mut loaded, crop)?;
+    }
+    if let Some(guides) = &args.aov {
+        if loaded.integrator.particle_tracer().is_some() {
+            bail!("--aov traces camera rays, which ptracer does not");
+        }
+        let inner = std::mem::replace(&mut loaded.integrator, Box::new(PathIntegrator::default()));
+        loaded.integrator = Box::new(DenoiserGuides::new(inner, guides.0.clone()));
     }
     let passes = args.time_limit.is_some() || args.progressive.is_some() || args.adaptive.is_some();
     if passes && loaded.integrator.particle_tracer().is_some() {

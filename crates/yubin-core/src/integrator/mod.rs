@@ -10,6 +10,7 @@
 mod ao;
 mod aov;
 mod direct;
+mod guides;
 mod moment;
 mod path;
 mod ptracer;
@@ -18,6 +19,7 @@ mod volpath;
 pub use ao::AoIntegrator;
 pub use aov::{parse_aovs, AovIntegrator, AovKind};
 pub use direct::DirectIntegrator;
+pub use guides::{DenoiserGuides, Guide};
 pub use moment::MomentIntegrator;
 pub use path::PathIntegrator;
 pub use ptracer::ParticleTracer;
