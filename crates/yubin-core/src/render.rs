@@ -69,6 +69,26 @@ pub struct Progressive<'a> {
     active: Vec<bool>,
 }
 
+/// A [`Progressive`] render's accumulated state (what a checkpoint holds).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassState {
+    /// Per pixel: weighted channel sums, then the weight.
+    pub sums: Vec<f32>,
+    /// Adaptive sampling: per pixel, the luminance sums of even and odd
+    /// samples (empty without).
+    pub halves: Vec<f32>,
+    /// Adaptive sampling: per pixel, the counts of even and odd samples.
+    pub counts: Vec<u32>,
+    /// Adaptive sampling: per pixel, still sampling.
+    pub active: Vec<bool>,
+    /// Samples per pixel taken.
+    pub done: u32,
+    /// Passes rendered.
+    pub passes: u32,
+    /// Non-finite samples dropped.
+    pub dropped: u64,
+}
+
 /// Adaptive sampling: a pixel stops once the relative error of its mean,
 /// estimated from two interleaved half-buffers (even and odd samples, as
 /// Cycles does), is below `threshold` in its whole 3 × 3 neighbourhood,
@@ -156,6 +176,56 @@ impl<'a> Progressive<'a> {
         self.halves = vec![Halves::default(); pixels];
         self.active = vec![true; pixels];
         self
+    }
+
+    /// Everything the render has accumulated, to continue it later
+    /// ([`Progressive::restore`]) exactly where it stopped.
+    pub fn state(&self) -> PassState {
+        PassState {
+            sums: self.sums.clone(),
+            halves: self
+                .halves
+                .iter()
+                .flat_map(|h| [h.sum[0], h.sum[1]])
+                .collect(),
+            counts: self.halves.iter().flat_map(|h| h.count).collect(),
+            active: self.active.clone(),
+            done: self.done,
+            passes: self.passes,
+            dropped: self.dropped,
+        }
+    }
+
+    /// Continues from `state` (of a render of this scene with these
+    /// settings); refuses a state whose sizes do not fit.
+    pub fn restore(&mut self, state: PassState) -> Result<(), String> {
+        let pixels = self.active.len();
+        let fits = state.sums.len() == self.sums.len()
+            && state.halves.len() == 2 * pixels
+            && state.counts.len() == 2 * pixels
+            && state.active.len() == pixels;
+        if !fits {
+            return Err(format!(
+                "it holds {} values for an image that needs {}",
+                state.sums.len(),
+                self.sums.len()
+            ));
+        }
+        self.sums = state.sums;
+        self.halves = state
+            .halves
+            .chunks_exact(2)
+            .zip(state.counts.chunks_exact(2))
+            .map(|(s, c)| Halves {
+                sum: [s[0], s[1]],
+                count: [c[0], c[1]],
+            })
+            .collect();
+        self.active = state.active;
+        self.done = state.done;
+        self.passes = state.passes;
+        self.dropped = state.dropped;
+        Ok(())
     }
 
     /// Samples taken over the whole image.

@@ -6,6 +6,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod checkpoint;
 mod compare;
 mod output;
 mod render;

@@ -1,11 +1,15 @@
 //! `yubin render`.
 
+use crate::checkpoint;
 use crate::output::{write_output, Display};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use signal_hook::consts::{SIGINT, SIGTERM};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 use yubin_core::integrator::{DenoiserGuides, Guide, PathIntegrator};
 use yubin_core::render::{render, Adaptive, Progressive, RenderOutput, RenderSettings};
@@ -69,6 +73,16 @@ pub struct RenderArgs {
     /// (as Intel Open Image Denoise asks), depth of the first hit.
     #[arg(long, value_name = "LIST", value_parser = parse_guides)]
     aov: Option<GuideList>,
+    /// Write the render's state to OUTPUT.state every SECONDS (rendering in
+    /// passes), for --resume. SIGINT and SIGTERM write it too, with the
+    /// image so far, and exit with 130 and 143.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_duration)]
+    checkpoint: Option<Duration>,
+    /// Continue the render saved in STATE (the same scene and options; a
+    /// difference is refused, named); the result equals an uninterrupted
+    /// render bit for bit.
+    #[arg(long, value_name = "STATE")]
+    resume: Option<PathBuf>,
     /// Exposure of PNG output in stops (EXR stays scene-linear).
     #[arg(
         long,
@@ -181,9 +195,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
         let inner = std::mem::replace(&mut loaded.integrator, Box::new(PathIntegrator::default()));
         loaded.integrator = Box::new(DenoiserGuides::new(inner, guides.0.clone()));
     }
-    let passes = args.time_limit.is_some() || args.progressive.is_some() || args.adaptive.is_some();
+    let passes = args.time_limit.is_some()
+        || args.progressive.is_some()
+        || args.adaptive.is_some()
+        || args.checkpoint.is_some()
+        || args.resume.is_some();
     if passes && loaded.integrator.particle_tracer().is_some() {
-        bail!("--time-limit, --progressive and --adaptive render in passes, which ptracer does not (it renders all its light paths at once)");
+        bail!("--time-limit, --progressive, --adaptive, --checkpoint and --resume render in passes, which ptracer does not (it renders all its light paths at once)");
     }
     if let Some(t) = args.adaptive {
         if !(t > 0.0 && t.is_finite()) {
@@ -291,6 +309,26 @@ fn render_in_passes(
             min_spp: args.adaptive_min,
         });
     }
+    let fingerprint = fingerprint(args, loaded, settings)?;
+    let state_path = PathBuf::from(format!("{}.state", output.display()));
+    if let Some(resume) = &args.resume {
+        let (saved, state) = checkpoint::read(resume)?;
+        checkpoint::check_same(resume, &saved, &fingerprint)?;
+        render
+            .restore(state)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", resume.display()))?;
+    }
+    // SIGINT and SIGTERM end the render after the current pass, saved.
+    let interrupted = [SIGINT, SIGTERM].map(|signal| {
+        let flag = Arc::new(AtomicBool::new(false));
+        signal_hook::flag::register(signal, Arc::clone(&flag)).map(|_| flag)
+    });
+    let [interrupt, terminate] = interrupted;
+    let (interrupt, terminate) = (
+        interrupt.context("cannot watch for SIGINT")?,
+        terminate.context("cannot watch for SIGTERM")?,
+    );
+    let mut last_checkpoint = Instant::now();
     // The bar follows the time limit, else the samples.
     let bar = match args.time_limit {
         Some(limit) => progress_bar(limit.as_millis() as u64, args.quiet),
@@ -316,6 +354,29 @@ fn render_in_passes(
                 last_write = Instant::now();
             }
         }
+        if let Some(every) = args.checkpoint {
+            if last_checkpoint.elapsed() >= every && !render.finished() {
+                checkpoint::write(&state_path, &fingerprint, &render.state())?;
+                last_checkpoint = Instant::now();
+            }
+        }
+        let signal = [(&interrupt, 130), (&terminate, 143)]
+            .into_iter()
+            .find(|(flag, _)| flag.load(Ordering::Relaxed));
+        if let Some((_, code)) = signal {
+            bar.finish_and_clear();
+            checkpoint::write(&state_path, &fingerprint, &render.state())?;
+            write_output(output, &render.output(), &display(args))
+                .with_context(|| format!("cannot write {}", output.display()))?;
+            eprintln!(
+                "interrupted after {} passes: wrote {} and {} (continue with --resume {})",
+                render.passes_done(),
+                output.display(),
+                state_path.display(),
+                state_path.display()
+            );
+            std::process::exit(code);
+        }
         if args
             .time_limit
             .is_some_and(|limit| elapsed + longest_pass > limit)
@@ -324,11 +385,73 @@ fn render_in_passes(
         }
     }
     bar.finish_and_clear();
+    if render.finished() {
+        // A finished render needs no state.
+        if args.checkpoint.is_some() || args.resume.is_some() {
+            std::fs::remove_file(&state_path).ok();
+        }
+    } else if args.checkpoint.is_some() {
+        checkpoint::write(&state_path, &fingerprint, &render.state())?;
+    }
     Ok((
         render.output(),
         render.total_samples(),
         render.passes_done(),
     ))
+}
+
+/// What a checkpoint must match to be resumed: the scene file's contents,
+/// the defines and every setting that changes the samples.
+fn fingerprint(
+    args: &RenderArgs,
+    loaded: &LoadedScene,
+    settings: &RenderSettings,
+) -> Result<checkpoint::Fingerprint> {
+    let (scene, text) = match &args.scene {
+        Some(p) => (
+            p.display().to_string(),
+            std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?,
+        ),
+        None => (
+            "(built-in Cornell box)".to_string(),
+            CORNELL_BOX.as_bytes().to_vec(),
+        ),
+    };
+    let film = &loaded.scene.film;
+    let defines: Vec<String> = args
+        .define
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect();
+    let guides = args
+        .aov
+        .as_ref()
+        .map(|g| format!("{:?}", g.0))
+        .unwrap_or_default();
+    Ok([
+        ("scene", scene),
+        (
+            "scene contents",
+            format!("{:016x}", checkpoint::fnv1a(&text)),
+        ),
+        ("defines", defines.join(" ")),
+        ("spp", settings.spp.to_string()),
+        ("seed", settings.seed.to_string()),
+        ("pass_spp", args.pass_spp.to_string()),
+        ("film", format!("{}x{}", film.width, film.height)),
+        (
+            "crop",
+            format!("{:?} {:?}", film.crop_offset, film.crop_size),
+        ),
+        (
+            "adaptive",
+            format!("{:?} min {}", args.adaptive, args.adaptive_min),
+        ),
+        ("aov", guides),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect())
 }
 
 /// How PNG output shows the image.
