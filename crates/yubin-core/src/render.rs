@@ -163,7 +163,7 @@ impl<'a> Progressive<'a> {
             passes: 0,
             dropped: 0,
             adaptive: None,
-            halves: Vec::new(),
+            halves: vec![Halves::default(); crop[0] as usize * crop[1] as usize],
             active: Vec::new(),
         }
     }
@@ -171,10 +171,8 @@ impl<'a> Progressive<'a> {
     /// The same render with adaptive sampling: `settings.spp` becomes the
     /// most a pixel takes.
     pub fn with_adaptive(mut self, adaptive: Adaptive) -> Self {
-        let pixels = self.scene.film.crop_size[0] as usize * self.scene.film.crop_size[1] as usize;
         self.adaptive = Some(adaptive);
-        self.halves = vec![Halves::default(); pixels];
-        self.active = vec![true; pixels];
+        self.active = vec![true; self.halves.len()];
         self
     }
 
@@ -199,11 +197,11 @@ impl<'a> Progressive<'a> {
     /// Continues from `state` (of a render of this scene with these
     /// settings); refuses a state whose sizes do not fit.
     pub fn restore(&mut self, state: PassState) -> Result<(), String> {
-        let pixels = self.active.len();
+        let pixels = self.halves.len();
         let fits = state.sums.len() == self.sums.len()
             && state.halves.len() == 2 * pixels
             && state.counts.len() == 2 * pixels
-            && state.active.len() == pixels;
+            && state.active.len() == self.active.len();
         if !fits {
             return Err(format!(
                 "it holds {} values for an image that needs {}",
@@ -226,6 +224,20 @@ impl<'a> Progressive<'a> {
         self.passes = state.passes;
         self.dropped = state.dropped;
         Ok(())
+    }
+
+    /// The estimated relative error of the image so far: the mean over
+    /// pixels of each one's half-buffer estimate (|A − B| / 2 over the
+    /// mean, see [`Adaptive`]); `None` until the pixels have samples in
+    /// both halves.
+    pub fn estimated_error(&self) -> Option<f32> {
+        let errors: Vec<f32> = self
+            .halves
+            .iter()
+            .map(Halves::relative_error)
+            .filter(|e| e.is_finite())
+            .collect();
+        (!errors.is_empty()).then(|| errors.iter().sum::<f32>() / errors.len() as f32)
     }
 
     /// Samples taken over the whole image.
@@ -368,6 +380,7 @@ impl<'a> Progressive<'a> {
             },
             layers,
             dropped_samples: self.dropped,
+            estimated_error: self.estimated_error(),
         }
     }
 }
@@ -381,6 +394,9 @@ pub struct RenderOutput {
     pub layers: Vec<Layer>,
     /// Samples discarded because they were NaN or infinite.
     pub dropped_samples: u64,
+    /// The estimated relative error of the image
+    /// ([`Progressive::estimated_error`]), when known.
+    pub estimated_error: Option<f32>,
 }
 
 fn tiles(crop: [u32; 2]) -> Vec<Tile> {
@@ -431,15 +447,7 @@ impl TileJob<'_> {
         let mut values = vec![0.0f32; self.channels];
         let values = values.as_mut_slice();
         let mut dropped = 0;
-        let track = self.active.is_some();
-        let mut halves = vec![
-            Halves::default();
-            if track {
-                tile.width() * tile.height()
-            } else {
-                0
-            }
-        ];
+        let mut halves = vec![Halves::default(); tile.width() * tile.height()];
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let pixel = y as usize * film.crop_size[0] as usize + x as usize;
@@ -464,11 +472,9 @@ impl TileJob<'_> {
                     }
                     if values.iter().all(|v| v.is_finite()) {
                         buffer.splat(self.filter, Vec2::new(x as f32, y as f32) + offset, values);
-                        if track {
-                            let i = (y - tile.y0) as usize * tile.width() + (x - tile.x0) as usize;
-                            let lum = crate::spectrum::luminance(Rgb::from_slice(&values[..3]));
-                            halves[i].add(index, lum);
-                        }
+                        let i = (y - tile.y0) as usize * tile.width() + (x - tile.x0) as usize;
+                        let lum = crate::spectrum::luminance(Rgb::from_slice(&values[..3]));
+                        halves[i].add(index, lum);
                     } else {
                         dropped += 1;
                     }

@@ -272,8 +272,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
         } else {
             format!("{} spp", total_samples / pixels.max(1))
         };
+        let noise = out
+            .estimated_error
+            .map(|e| format!(", noise ~{:.2} %", 100.0 * e))
+            .unwrap_or_default();
         eprintln!(
-            "{}: {}x{}, {spp}{passes} in {:.2} s (load {:.2} s, {:.2} M samples/s)",
+            "{}: {}x{}, {spp}{passes} in {:.2} s (load {:.2} s, {:.2} M samples/s{noise})",
             output.display(),
             film.crop_size[0],
             film.crop_size[1],

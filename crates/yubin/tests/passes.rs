@@ -196,3 +196,26 @@ fn time_limited_image_is_unbiased() {
     assert!(!z_test(&brighter, spp, &mean, &var, 0.01).passed);
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// The summary's noise estimate (the mean relative error of the pixels'
+/// means, from their even and odd samples) falls as 1/√spp: four times
+/// the samples, half the noise.
+#[test]
+fn summary_estimates_the_noise() {
+    let d = dir("noise");
+    let noise = |spp: &str| -> f32 {
+        let (code, stderr) = yubin(&d, &["--spp", spp, "-o", "n.exr"]);
+        assert_eq!(code, Some(0), "{stderr}");
+        let after = stderr
+            .split("noise ~")
+            .nth(1)
+            .unwrap_or_else(|| panic!("{stderr}"));
+        after.split(' ').next().unwrap().parse().unwrap()
+    };
+    let ratio = noise("16") / noise("64");
+    assert!(
+        (1.6..2.4).contains(&ratio),
+        "16 → 64 spp divided the noise by {ratio}"
+    );
+    std::fs::remove_dir_all(&d).ok();
+}

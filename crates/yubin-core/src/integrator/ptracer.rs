@@ -138,6 +138,7 @@ impl ParticleTracer {
             image: image.to_framebuffer(if total > 0 { 1.0 / total as f64 } else { 0.0 }),
             layers: Vec::new(),
             dropped_samples: dropped,
+            estimated_error: None,
         }
     }
 
