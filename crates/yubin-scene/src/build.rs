@@ -125,10 +125,15 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
                 child.used.set(true);
                 b.medium(obj)?;
             }
+            // Built (and checked) even when nothing refers to it, as
+            // Mitsuba loads every declared object.
+            Category::Texture if obj.id.is_some() => {
+                child.used.set(true);
+                b.texture(obj)?;
+            }
             // Declared to be referenced: built where a `<ref>` uses it
             // (Mitsuba's docs scenes declare a sampler for the sensor so).
-            Category::Texture
-            | Category::Spectrum
+            Category::Spectrum
             | Category::Sampler
             | Category::Film
             | Category::Rfilter

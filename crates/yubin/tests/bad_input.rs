@@ -581,3 +581,21 @@ fn unwritable_output_directory_fails_before_rendering() {
     assert_mentions(&stderr, &["missing", "writable directory"]);
     assert_eq!(dir.listing(), before);
 }
+
+/// A texture declared with an id and never referenced is built like the
+/// rest (as Mitsuba loads it): a valid one renders, a misspelt parameter
+/// in it is named at its line.
+#[test]
+fn unreferenced_texture_is_checked_not_refused() {
+    let texture = |param: &str| {
+        format!(
+            "\t<texture type=\"checkerboard\" id=\"t\">\n\t\t<rgb name=\"{param}\" value=\"0.2\"/>\n\t</texture>\n{SPHERE}"
+        )
+    };
+    let dir = TempDir::new("unreferenced_texture");
+    dir.write("scene.xml", scene(&texture("color0")));
+    render_succeeds(&dir);
+    let dir = TempDir::new("unreferenced_texture_typo");
+    let xml = scene(&texture("colr0"));
+    fails_at_line(&dir, &xml, "colr0", &["colr0"]);
+}
