@@ -131,16 +131,21 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
                 child.used.set(true);
                 b.texture(obj)?;
             }
+            Category::Phase if obj.id.is_some() => {
+                child.used.set(true);
+                yubin_core::phase::PhaseFunction::from_params(&mut ObjParams { obj, b: &mut b })?;
+            }
+            Category::Volume if obj.id.is_some() => {
+                child.used.set(true);
+                yubin_core::volume::from_params(&mut ObjParams { obj, b: &mut b })?;
+            }
+            Category::Spectrum if obj.id.is_some() => {
+                child.used.set(true);
+                b.spectrum_object(obj, ColorKind::Unbounded)?;
+            }
             // Declared to be referenced: built where a `<ref>` uses it
             // (Mitsuba's docs scenes declare a sampler for the sensor so).
-            Category::Spectrum
-            | Category::Sampler
-            | Category::Film
-            | Category::Rfilter
-            | Category::Phase
-            | Category::Volume
-                if obj.id.is_some() =>
-            {
+            Category::Sampler | Category::Film | Category::Rfilter if obj.id.is_some() => {
                 child.used.set(true);
             }
             _ => {}

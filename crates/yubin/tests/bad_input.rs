@@ -582,9 +582,9 @@ fn unwritable_output_directory_fails_before_rendering() {
     assert_eq!(dir.listing(), before);
 }
 
-/// A texture declared with an id and never referenced is built like the
-/// rest (as Mitsuba loads it): a valid one renders, a misspelt parameter
-/// in it is named at its line.
+/// A texture (spectrum, volume, phase function) declared with an id and
+/// never referenced is built like the rest (as Mitsuba loads it): a valid
+/// one renders, a misspelt parameter in it is named at its line.
 #[test]
 fn unreferenced_texture_is_checked_not_refused() {
     let texture = |param: &str| {
@@ -598,4 +598,16 @@ fn unreferenced_texture_is_checked_not_refused() {
     let dir = TempDir::new("unreferenced_texture_typo");
     let xml = scene(&texture("colr0"));
     fails_at_line(&dir, &xml, "colr0", &["colr0"]);
+    // The same for the other families a scene may declare ahead.
+    let dir = TempDir::new("unreferenced_others");
+    let others = format!(
+        "\t<spectrum type=\"blackbody\" id=\"s\"><float name=\"temperature\" value=\"3000\"/></spectrum>\n\t<volume type=\"constvolume\" id=\"v\"><float name=\"value\" value=\"2\"/></volume>\n{SPHERE}"
+    );
+    dir.write("scene.xml", scene(&others));
+    render_succeeds(&dir);
+    let dir = TempDir::new("unreferenced_phase_typo");
+    let xml = scene(&format!(
+        "\t<phase type=\"hg\" id=\"p\">\n\t\t<float name=\"gg\" value=\"0.5\"/>\n\t</phase>\n{SPHERE}"
+    ));
+    fails_at_line(&dir, &xml, "\"gg\"", &["gg"]);
 }
