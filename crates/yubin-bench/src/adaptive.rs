@@ -11,7 +11,7 @@
 //! samples, and prints both relMSEs against a uniform render at
 //! `--ref-spp` (cached in `out/bench/adaptive`) and their ratio.
 
-use crate::cornell::{rel_mse_rgb, repo_root};
+use crate::cornell::{rel_mse_rgb, repo_root, rgb_image};
 use anyhow::{bail, Context, Result};
 use std::time::Instant;
 use yubin_core::render::{Adaptive, Progressive, RenderSettings};
@@ -84,15 +84,5 @@ fn render(loaded: &yubin_scene::LoadedScene, spp: u32, adaptive: Option<Adaptive
     while !passes.finished() {
         passes.pass(&|_| {});
     }
-    let out = passes.output();
-    let rgb = out.image.select_channels(0..3);
-    (
-        Image {
-            width: rgb.width as usize,
-            height: rgb.height as usize,
-            channels: 3,
-            data: rgb.data,
-        },
-        passes.total_samples(),
-    )
+    (rgb_image(&passes.output().image), passes.total_samples())
 }

@@ -71,13 +71,7 @@ pub fn run(args: &[String]) -> Result<()> {
         &|_| {},
     );
     let wall = t.elapsed().as_secs_f64();
-    let rgb = out.image.select_channels(0..3);
-    let img = Image {
-        width: rgb.width as usize,
-        height: rgb.height as usize,
-        channels: 3,
-        data: rgb.data,
-    };
+    let img = rgb_image(&out.image);
     write_image(&out_dir.join("yubin.exr"), &img, &[])?;
     rows.push(Row {
         name: "yubin".into(),
@@ -119,6 +113,17 @@ pub fn run(args: &[String]) -> Result<()> {
     }
     print_table(&rows, spp, &scene);
     Ok(())
+}
+
+/// The RGB channels of a rendered framebuffer as an image.
+pub(crate) fn rgb_image(fb: &yubin_core::film::Framebuffer) -> Image {
+    let rgb = fb.select_channels(0..3);
+    Image {
+        width: rgb.width as usize,
+        height: rgb.height as usize,
+        channels: 3,
+        data: rgb.data,
+    }
 }
 
 fn rel_mse(a: &Image, b: &Image) -> f64 {

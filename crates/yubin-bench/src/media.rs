@@ -17,7 +17,7 @@
 //! of times to equal error. Then the plume with its majorant grid and
 //! with one majorant for the whole grid, at equal samples.
 
-use crate::cornell::{rel_mse_rgb, repo_root};
+use crate::cornell::{rel_mse_rgb, repo_root, rgb_image};
 use anyhow::{bail, Context, Result};
 use std::path::Path;
 use std::process::Command;
@@ -141,17 +141,7 @@ fn yubin(scene: &Path, spp: u32, single_majorant: bool) -> Result<(f64, Image)> 
         &RenderSettings { spp, seed: 0 },
         &|_| {},
     );
-    let secs = t.elapsed().as_secs_f64();
-    let rgb = out.image.select_channels(0..3);
-    Ok((
-        secs,
-        Image {
-            width: rgb.width as usize,
-            height: rgb.height as usize,
-            channels: 3,
-            data: rgb.data,
-        },
-    ))
+    Ok((t.elapsed().as_secs_f64(), rgb_image(&out.image)))
 }
 
 /// Mitsuba's load + render time (as its script reports them) and image.

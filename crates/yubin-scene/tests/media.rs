@@ -232,23 +232,16 @@ fn emissive_slab_glows_by_its_optical_depth() {
 }
 
 fn masked(shadow_rays: &str) -> String {
-    masked_under(shadow_rays, 0.5, 10.0)
-}
-
-/// [`masked`] under a light of half-width `size` and radiance `radiance`.
-fn masked_under(shadow_rays: &str, size: f32, radiance: f32) -> String {
     scene(
         &format!(
             r#"<integrator type="volpath"><string name="shadow_rays" value="{shadow_rays}"/></integrator>"#
         ),
-        &format!(
-            r#"<shape type="rectangle"><transform name="to_world"><scale value="{size}"/><rotate x="1" angle="90"/><translate y="2"/></transform>
-  <emitter type="area"><rgb name="radiance" value="{radiance}"/></emitter></shape>
+        r#"<shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/><translate y="2"/></transform>
+  <emitter type="area"><rgb name="radiance" value="10"/></emitter></shape>
 <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/><translate y="-0.8"/></transform>
   <bsdf type="diffuse"/></shape>
 <shape type="sphere"><float name="radius" value="0.6"/><point name="center" value="0, 0.3, 0"/>
-  <bsdf type="mask"><float name="opacity" value="0.3"/><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.4, 0.2"/></bsdf></bsdf></shape>"#
-        ),
+  <bsdf type="mask"><float name="opacity" value="0.3"/><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.4, 0.2"/></bsdf></bsdf></shape>"#,
     )
 }
 

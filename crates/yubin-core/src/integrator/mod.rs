@@ -79,6 +79,12 @@ pub(crate) fn max_depth_param(p: &mut dyn Params) -> Result<i32, ParamError> {
     })
 }
 
+/// `rr_depth`: the path length at which Russian roulette starts
+/// (default 5, Mitsuba's; negative values read as 0).
+pub(crate) fn rr_depth_param(p: &mut dyn Params) -> Result<u32, ParamError> {
+    Ok(p.integer_or("rr_depth", 5)?.clamp(0, u32::MAX as i64) as u32)
+}
+
 use crate::interaction::SurfaceInteraction;
 use crate::math::Ray;
 use crate::params::{plugin_of, ParamError, Params};

@@ -44,7 +44,7 @@ impl PathIntegrator {
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
         Ok(Self {
             max_depth: max_depth_param(p)?,
-            rr_depth: p.integer_or("rr_depth", 5)?.clamp(0, u32::MAX as i64) as u32,
+            rr_depth: super::rr_depth_param(p)?,
             hide_emitters: p.boolean_or("hide_emitters", false)?,
             light_selection: LightSelection::from_params(p)?,
         })
