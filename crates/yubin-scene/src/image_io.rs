@@ -539,6 +539,37 @@ fn channel_names(channels: usize) -> Vec<String> {
 
 /// Writes an 8-bit sRGB PNG: grey, grey+alpha, RGB or RGBA by channel count.
 pub fn write_png(path: &Path, img: &Image) -> Result<(), SceneError> {
+    write_8bit(path, img, true, image::ImageFormat::Png)
+}
+
+/// Writes display values (already encoded for the display, as a view
+/// transform leaves them) as an 8-bit PNG or JPEG, by the extension of
+/// `path`: each value clamped to [0, 1] and rounded, nothing else done.
+pub fn write_display_image(path: &Path, img: &Image) -> Result<(), SceneError> {
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let format = match extension.as_deref() {
+        Some("png") => image::ImageFormat::Png,
+        Some("jpg" | "jpeg") if img.channels != 2 && img.channels != 4 => image::ImageFormat::Jpeg,
+        Some("jpg" | "jpeg") => return Err(SceneError::file(path, "JPEG cannot hold alpha")),
+        _ => {
+            return Err(SceneError::file(
+                path,
+                "display images are written as .png or .jpg",
+            ))
+        }
+    };
+    write_8bit(path, img, false, format)
+}
+
+fn write_8bit(
+    path: &Path,
+    img: &Image,
+    srgb_encode: bool,
+    format: image::ImageFormat,
+) -> Result<(), SceneError> {
     check_writable(path, img)?;
     let color_type = match img.channels {
         1 => image::ColorType::L8,
@@ -548,32 +579,30 @@ pub fn write_png(path: &Path, img: &Image) -> Result<(), SceneError> {
         n => {
             return Err(SceneError::file(
                 path,
-                format!("PNG cannot hold {n} channels (1 to 4)"),
+                format!("an 8-bit image cannot hold {n} channels (1 to 4)"),
             ))
         }
     };
     let (Ok(width), Ok(height)) = (u32::try_from(img.width), u32::try_from(img.height)) else {
-        return Err(SceneError::file(path, "image too large for PNG"));
+        return Err(SceneError::file(
+            path,
+            "image too large for an 8-bit format",
+        ));
     };
-    let bytes = encode_srgb8(img);
+    let bytes = encode_8bit(img, srgb_encode);
     write_atomically(path, |tmp| {
-        image::save_buffer_with_format(
-            tmp,
-            &bytes,
-            width,
-            height,
-            color_type,
-            image::ImageFormat::Png,
+        image::save_buffer_with_format(tmp, &bytes, width, height, color_type, format).map_err(
+            |e| match e {
+                image::ImageError::IoError(source) => io_error(path, source),
+                other => SceneError::file(path, format!("cannot write {format:?}: {other}")),
+            },
         )
-        .map_err(|e| match e {
-            image::ImageError::IoError(source) => io_error(path, source),
-            other => SceneError::file(path, format!("cannot write PNG: {other}")),
-        })
     })
 }
 
-/// The image as 8-bit values: sRGB-encoded colour, linear alpha.
-fn encode_srgb8(img: &Image) -> Vec<u8> {
+/// The image as 8-bit values: colour sRGB-encoded if `srgb_encode`, alpha
+/// linear.
+fn encode_8bit(img: &Image, srgb_encode: bool) -> Vec<u8> {
     let has_alpha = img.channels == 2 || img.channels == 4;
     let color_channels = if has_alpha {
         img.channels - 1
@@ -584,7 +613,7 @@ fn encode_srgb8(img: &Image) -> Vec<u8> {
         .chunks_exact(img.channels)
         .flat_map(|pixel| {
             pixel.iter().enumerate().map(move |(c, &v)| {
-                let encoded = if c < color_channels {
+                let encoded = if srgb_encode && c < color_channels {
                     linear_to_srgb(v)
                 } else {
                     v

@@ -11,6 +11,7 @@ pub mod desc;
 pub mod error;
 pub mod image_io;
 pub mod mesh;
+pub mod ocio;
 mod params;
 pub mod tonemap;
 pub mod volume_io;

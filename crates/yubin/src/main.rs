@@ -3,6 +3,7 @@
 //! ```text
 //! yubin render [SCENE] [-o OUT] [--spp N] [--threads N] [--seed S] [-D name=value]... [--quiet]
 //! yubin compare IMAGE.exr REFERENCE.exr
+//! yubin tonemap IMAGE.exr -o OUT.png [--exposure EV] [--tonemap CURVE | --ocio CONFIG --view VIEW --look LOOKS]
 //! ```
 #![warn(missing_docs)]
 
@@ -10,6 +11,7 @@ mod checkpoint;
 mod compare;
 mod output;
 mod render;
+mod tonemap;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -28,6 +30,9 @@ enum Command {
     Render(render::RenderArgs),
     /// Compare an image with a reference: relMSE, RMSE and mean-luminance bias.
     Compare(compare::CompareArgs),
+    /// Show a scene-linear image through an exposure and a tone curve or
+    /// OpenColorIO view, as PNG or JPEG.
+    Tonemap(tonemap::TonemapArgs),
 }
 
 fn main() -> ExitCode {
@@ -35,6 +40,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render::run(args),
         Command::Compare(args) => compare::run(args),
+        Command::Tonemap(args) => tonemap::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,7 +1,7 @@
 //! `yubin render`.
 
 use crate::checkpoint;
-use crate::output::{write_output, Display};
+use crate::output::{write_output, Display, DisplayArgs};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use signal_hook::consts::{SIGINT, SIGTERM};
@@ -13,7 +13,6 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use yubin_core::integrator::{DenoiserGuides, Guide, PathIntegrator};
 use yubin_core::render::{render, Adaptive, Progressive, RenderOutput, RenderSettings};
-use yubin_scene::tonemap::ToneCurve;
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
 
 /// The built-in demo scene.
@@ -83,17 +82,9 @@ pub struct RenderArgs {
     /// render bit for bit.
     #[arg(long, value_name = "STATE")]
     resume: Option<PathBuf>,
-    /// Exposure of PNG output in stops (EXR stays scene-linear).
-    #[arg(
-        long,
-        value_name = "EV",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
-    exposure: f32,
-    /// Tone curve of PNG output: srgb (clip) or filmic (Hable).
-    #[arg(long, value_name = "CURVE", default_value = "srgb", value_parser = parse_curve)]
-    tonemap: ToneCurve,
+    /// How PNG/JPEG output shows the image.
+    #[command(flatten)]
+    display: DisplayArgs,
 }
 
 /// The denoiser guides `--aov` asks for (a newtype: clap reads a `Vec`
@@ -115,16 +106,6 @@ fn parse_guides(s: &str) -> Result<GuideList, String> {
         })
         .collect::<Result<_, _>>()
         .map(GuideList)
-}
-
-fn parse_curve(s: &str) -> Result<ToneCurve, String> {
-    ToneCurve::from_name(s).ok_or_else(|| {
-        let names: Vec<&str> = yubin_scene::tonemap::CURVES
-            .iter()
-            .map(|(n, _)| *n)
-            .collect();
-        format!("unknown tone curve \"{s}\" (known: {})", names.join(", "))
-    })
 }
 
 /// A duration: seconds, or a sequence of numbers with units h, m, s
@@ -220,9 +201,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.pass_spp == 0 {
         bail!("--pass-spp must be at least 1");
     }
-    if !args.exposure.is_finite() {
-        bail!("--exposure must be a finite number of stops");
-    }
+    let display = args.display.resolve()?;
     let settings = RenderSettings {
         spp,
         seed: args.seed.unwrap_or(loaded.seed),
@@ -239,7 +218,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let pixels = u64::from(film.crop_size[0]) * u64::from(film.crop_size[1]);
     let t1 = Instant::now();
     let (out, total_samples, passes_done) = if passes {
-        render_in_passes(&pool, &loaded, &settings, &args, &output)?
+        render_in_passes(&pool, &loaded, &settings, &args, &output, &display)?
     } else {
         let bar = progress_bar(pixels * u64::from(spp), args.quiet);
         let done = AtomicU64::new(0);
@@ -259,7 +238,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             out.dropped_samples
         );
     }
-    write_output(&output, &out, &display(&args))
+    write_output(&output, &out, &display)
         .with_context(|| format!("cannot write {}", output.display()))?;
     if !args.quiet {
         let passes = if passes {
@@ -299,6 +278,7 @@ fn render_in_passes(
     settings: &RenderSettings,
     args: &RenderArgs,
     output: &Path,
+    display: &Display,
 ) -> Result<(RenderOutput, u64, u32)> {
     let start = Instant::now();
     let mut render = Progressive::new(
@@ -353,7 +333,7 @@ fn render_in_passes(
         }
         if let Some(every) = args.progressive {
             if last_write.elapsed() >= every && !render.finished() {
-                write_output(output, &render.output(), &display(args))
+                write_output(output, &render.output(), display)
                     .with_context(|| format!("cannot write {}", output.display()))?;
                 last_write = Instant::now();
             }
@@ -370,7 +350,7 @@ fn render_in_passes(
         if let Some((_, code)) = signal {
             bar.finish_and_clear();
             checkpoint::write(&state_path, &fingerprint, &render.state())?;
-            write_output(output, &render.output(), &display(args))
+            write_output(output, &render.output(), display)
                 .with_context(|| format!("cannot write {}", output.display()))?;
             eprintln!(
                 "interrupted after {} passes: wrote {} and {} (continue with --resume {})",
@@ -459,13 +439,6 @@ fn fingerprint(
 }
 
 /// How PNG output shows the image.
-fn display(args: &RenderArgs) -> Display {
-    Display {
-        exposure: args.exposure,
-        curve: args.tonemap,
-    }
-}
-
 /// Restricts the film to the crop window `[x, y, w, h]`.
 fn set_crop(loaded: &mut LoadedScene, [x, y, w, h]: [u32; 4]) -> Result<()> {
     let film = &mut loaded.scene.film;
@@ -493,9 +466,9 @@ fn check_output_format(path: &Path) -> Result<()> {
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     match ext.as_deref() {
-        Some("exr" | "png") => {}
+        Some("exr" | "png" | "jpg" | "jpeg") => {}
         _ => bail!(
-            "{}: unsupported output format (supported extensions: .exr, .png)",
+            "{}: unsupported output format (supported extensions: .exr, .png, .jpg)",
             path.display()
         ),
     }
