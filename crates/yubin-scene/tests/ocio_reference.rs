@@ -183,7 +183,12 @@ fn builtin_agx_follows_blenders_agx() {
         }
     }
     let colour_mean = colour_sum / colour_n as f64;
-    eprintln!("agx vs Blender's AgX: greys worst {grey_worst}/255, colours mean {colour_mean:.2}/255");
+    eprintln!(
+        "agx vs Blender's AgX: greys worst {grey_worst}/255, colours mean {colour_mean:.2}/255"
+    );
     assert!(grey_worst <= 1, "greys off by {grey_worst}/255");
-    assert!(colour_mean < 2.0, "colours off by {colour_mean:.2}/255 on average");
+    assert!(
+        colour_mean < 2.0,
+        "colours off by {colour_mean:.2}/255 on average"
+    );
 }

@@ -611,3 +611,135 @@ fn unreferenced_texture_is_checked_not_refused() {
     ));
     fails_at_line(&dir, &xml, "\"gg\"", &["gg"]);
 }
+
+/// A small OCIO config: a linear space, an sRGB display space, a view
+/// whose colour space uses a transform yubin does not implement, one
+/// whose LUT is missing, and a look.
+const OCIO_CONFIG: &str = r#"ocio_profile_version: 2
+roles:
+  scene_linear: Linear
+displays:
+  sRGB:
+    - !<View> {name: Standard, colorspace: sRGB}
+    - !<View> {name: Graded, colorspace: Graded}
+    - !<View> {name: Lut, colorspace: Lut}
+looks:
+  - !<Look>
+    name: Bright
+    process_space: Linear
+    transform: !<MatrixTransform> {matrix: [2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 1]}
+colorspaces:
+  - !<ColorSpace>
+    name: Linear
+  - !<ColorSpace>
+    name: sRGB
+    from_scene_reference: !<ExponentWithLinearTransform> {gamma: 2.4, offset: 0.055, direction: inverse}
+  - !<ColorSpace>
+    name: Graded
+    from_scene_reference: !<GroupTransform>
+      children:
+        - !<MatrixTransform> {matrix: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}
+        - !<GradingToneTransform>
+          shadows: {rgb: [0.2, 0.2, 0.2], master: 0.35, start: 0.4, pivot: 0.1}
+  - !<ColorSpace>
+    name: Lut
+    from_scene_reference: !<FileTransform> {src: missing.cube, interpolation: tetrahedral}
+"#;
+
+#[test]
+fn ocio_errors_name_the_problem_and_write_nothing() {
+    let dir = TempDir::new("ocio_errors");
+    dir.write("scene.xml", scene(SPHERE));
+    dir.write("config.ocio", OCIO_CONFIG);
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            "scene.xml",
+            "-o",
+            "out.png",
+            "--quiet",
+            "--ocio",
+            "config.ocio",
+        ];
+        args.extend_from_slice(extra);
+        args.into_iter().map(str::to_string).collect::<Vec<_>>()
+    };
+    let fails = |args: Vec<String>| {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        expect_failure(&dir, &args, 1)
+    };
+    // An unsupported transform: named, with the config and its line.
+    let line = line_of(OCIO_CONFIG, "GradingToneTransform").to_string();
+    let stderr = fails(render(&["--view", "Graded"]));
+    assert_mentions(
+        &stderr,
+        &["GradingToneTransform", &format!("config.ocio:{line}")],
+    );
+    // A LUT file that is not there: named with the places searched.
+    let stderr = fails(render(&["--view", "Lut"]));
+    assert_mentions(&stderr, &["missing.cube", "config.ocio"]);
+    // An unknown view and an unknown look: named, with the known ones.
+    let stderr = fails(render(&["--view", "Filmic"]));
+    assert_mentions(&stderr, &["Filmic", "Standard, Graded, Lut"]);
+    let stderr = fails(render(&["--look", "Punchy"]));
+    assert_mentions(&stderr, &["Punchy", "Bright"]);
+    // A display that does not exist.
+    let stderr = fails(render(&["--display", "P3"]));
+    assert_mentions(&stderr, &["P3", "sRGB"]);
+    // Not a config at all, and a missing one.
+    dir.write("broken.ocio", "colorspaces: [\n");
+    let stderr = expect_failure(
+        &dir,
+        &[
+            "render",
+            "scene.xml",
+            "-o",
+            "out.png",
+            "--quiet",
+            "--ocio",
+            "broken.ocio",
+        ],
+        1,
+    );
+    assert_mentions(&stderr, &["broken.ocio"]);
+    let stderr = expect_failure(
+        &dir,
+        &[
+            "render",
+            "scene.xml",
+            "-o",
+            "out.png",
+            "--quiet",
+            "--ocio",
+            "nowhere.ocio",
+        ],
+        1,
+    );
+    assert_mentions(&stderr, &["nowhere.ocio"]);
+    // A view without a config, and both a config and a tone curve.
+    let stderr = expect_failure(
+        &dir,
+        &[
+            "render",
+            "scene.xml",
+            "-o",
+            "out.png",
+            "--quiet",
+            "--view",
+            "Filmic",
+        ],
+        1,
+    );
+    assert_mentions(&stderr, &["--ocio"]);
+    let stderr = fails(render(&["--tonemap", "filmic"]));
+    assert_mentions(&stderr, &["--tonemap", "--ocio"]);
+    // The same config renders through its valid view and look.
+    let args = render(&["--view", "Standard", "--look", "Bright"]);
+    let out = yubin(&dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.path().join("out.png").exists());
+}
