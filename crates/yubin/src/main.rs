@@ -9,6 +9,7 @@
 
 mod checkpoint;
 mod compare;
+mod denoise;
 mod output;
 mod render;
 mod tonemap;

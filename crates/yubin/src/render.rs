@@ -1,6 +1,7 @@
 //! `yubin render`.
 
 use crate::checkpoint;
+use crate::denoise;
 use crate::output::{write_output, Display, DisplayArgs};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -11,6 +12,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use yubin_core::filter::Filter;
 use yubin_core::integrator::{DenoiserGuides, Guide, PathIntegrator};
 use yubin_core::render::{render, Adaptive, Progressive, RenderOutput, RenderSettings};
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
@@ -82,6 +84,11 @@ pub struct RenderArgs {
     /// render bit for bit.
     #[arg(long, value_name = "STATE")]
     resume: Option<PathBuf>,
+    /// Denoise the finished image with Intel Open Image Denoise, guided by
+    /// albedo and normal layers (which the EXR then holds); needs a build
+    /// with `--features denoise` (scripts/oidn-setup).
+    #[arg(long)]
+    denoise: bool,
     /// How PNG/JPEG output shows the image.
     #[command(flatten)]
     display: DisplayArgs,
@@ -169,12 +176,31 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if let Some(crop) = args.crop {
         set_crop(&mut loaded, crop)?;
     }
-    if let Some(guides) = &args.aov {
+    if args.denoise {
+        denoise::check_available()?;
+        // A wider pixel filter spreads each sample over several pixels,
+        // and OIDN keeps noise that neighbours share as detail.
+        if loaded.scene.film.filter != Filter::Box {
+            if !args.quiet {
+                eprintln!("note: --denoise renders with a box pixel filter (Open Image Denoise needs each pixel's noise to be its own)");
+            }
+            loaded.scene.film.filter = Filter::Box;
+        }
+    }
+    let mut guides = args.aov.as_ref().map(|g| g.0.clone()).unwrap_or_default();
+    if args.denoise {
+        for guide in [Guide::Albedo, Guide::Normal] {
+            if !guides.contains(&guide) {
+                guides.push(guide);
+            }
+        }
+    }
+    if !guides.is_empty() {
         if loaded.integrator.particle_tracer().is_some() {
-            bail!("--aov traces camera rays, which ptracer does not");
+            bail!("--aov and --denoise trace camera rays, which ptracer does not");
         }
         let inner = std::mem::replace(&mut loaded.integrator, Box::new(PathIntegrator::default()));
-        loaded.integrator = Box::new(DenoiserGuides::new(inner, guides.0.clone()));
+        loaded.integrator = Box::new(DenoiserGuides::new(inner, guides));
     }
     let passes = args.time_limit.is_some()
         || args.progressive.is_some()
@@ -238,6 +264,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
             out.dropped_samples
         );
     }
+    let mut out = out;
+    if args.denoise {
+        denoise::denoise(&mut out)?;
+    }
     write_output(&output, &out, &display)
         .with_context(|| format!("cannot write {}", output.display()))?;
     if !args.quiet {
@@ -253,7 +283,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
         };
         let noise = out
             .estimated_error
-            .map(|e| format!(", noise ~{:.2} %", 100.0 * e))
+            .map(|e| {
+                let when = if args.denoise {
+                    " before denoising"
+                } else {
+                    ""
+                };
+                format!(", noise{when} ~{:.2} %", 100.0 * e)
+            })
             .unwrap_or_default();
         eprintln!(
             "{}: {}x{}, {spp}{passes} in {:.2} s (load {:.2} s, {:.2} M samples/s{noise})",
@@ -422,6 +459,7 @@ fn fingerprint(
         ("spp", settings.spp.to_string()),
         ("seed", settings.seed.to_string()),
         ("pass_spp", args.pass_spp.to_string()),
+        ("pixel filter", format!("{:?}", film.filter)),
         ("film", format!("{}x{}", film.width, film.height)),
         (
             "crop",
