@@ -5,7 +5,6 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use yubin_scene::image_io::{read_image, ColorHandling};
 
 fn dir() -> PathBuf {
     let d = std::env::temp_dir().join(format!("yubin-denoise-{}", std::process::id()));
@@ -25,6 +24,7 @@ fn yubin(dir: &Path, args: &[&str]) -> std::process::Output {
 #[cfg(feature = "denoise")]
 #[test]
 fn denoising_brings_a_4_spp_render_close_to_a_256_spp_one() {
+    use yubin_scene::image_io::{read_image, ColorHandling};
     let d = dir();
     for (name, args) in [
         ("reference.exr", vec!["--spp", "256", "-D", "rfilter=box"]),
