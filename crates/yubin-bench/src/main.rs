@@ -14,6 +14,8 @@
 //! - [`media`]: a homogeneous and a heterogeneous medium against Mitsuba 3
 //!   (time to equal error), and the majorant grid's effect.
 //! - [`adaptive`]: adaptive against uniform sampling at equal samples.
+//! - [`suite`]: time to equal error against Mitsuba 3 on a suite of
+//!   scenes, with load time and peak memory.
 //! - [`smoke`]: writes the procedural smoke plume grid of `scenes/smoke.xml`.
 //! - [`envmap`]: time to build a 4096 × 2048 environment map's sampling
 //!   distribution.
@@ -30,6 +32,7 @@ mod media;
 mod rays;
 mod samplers;
 mod smoke;
+mod suite;
 
 use anyhow::{bail, Result};
 
@@ -46,6 +49,7 @@ const USAGE: &str = "usage:
   yubin-bench smoke-vol PATH [--res X,Y,Z]
   yubin-bench media [--spp N] [--ref-spp N] [--reps N]
   yubin-bench adaptive [--ref-spp N] [--max-spp N]
+  yubin-bench suite [--spp N] [--ref-spp N] [--reps N] [--scenes a,b] [--variants v,w]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
                    [--min-passes N] [--max-passes N] [--out FILE.md]
@@ -67,6 +71,7 @@ fn main() -> Result<()> {
         Some("smoke-vol") => smoke::run(&args[1..]),
         Some("media") => media::run(&args[1..]),
         Some("adaptive") => adaptive::run(&args[1..]),
+        Some("suite") => suite::run(&args[1..]),
         Some("help") => {
             println!("{USAGE}");
             Ok(())

@@ -304,28 +304,83 @@ impl Microfacet {
     /// visible slopes for incidence in the x-z plane, rotate them to `wo`'s
     /// azimuth and unstretch.
     fn sample_visible_beckmann(&self, wo: Vec3, u: Vec2) -> Vec3 {
-        let w = Vec3::new(self.alpha_u * wo.x, self.alpha_v * wo.y, wo.z).normalize();
+        let frame = BeckmannVisibleFrame::new(self, wo);
+        let x = beckmann_visible_slope_x(frame.cos_theta, frame.sin_theta, u.x);
+        frame.normal(self, Vec2::new(x, erfinv(2.0 * u.y - 1.0)))
+    }
+
+    /// [`Microfacet::sample`] at every node of the tensor grid
+    /// `ux` × `uy` (`ux` outer), the same values as node by node; for
+    /// visible Beckmann normals the slope solve of each `ux` is shared by
+    /// its whole row (quadratures over the sampler's square, such as
+    /// `roughplastic`'s tables, call this).
+    pub fn sample_grid(&self, wo: Vec3, ux: &[f32], uy: &[f32]) -> Vec<(Vec3, f32)> {
+        if !(self.samples_visible() && self.kind == MicrofacetType::Beckmann) {
+            return ux
+                .iter()
+                .flat_map(|&x| uy.iter().map(move |&y| self.sample(wo, Vec2::new(x, y))))
+                .collect();
+        }
+        let frame = BeckmannVisibleFrame::new(self, wo);
+        let ys: Vec<f32> = uy.iter().map(|&y| erfinv(2.0 * y - 1.0)).collect();
+        let mut out = Vec::with_capacity(ux.len() * uy.len());
+        for &x in ux {
+            let sx = beckmann_visible_slope_x(frame.cos_theta, frame.sin_theta, x);
+            for &sy in &ys {
+                let m = frame.normal(self, Vec2::new(sx, sy));
+                out.push(if m.is_finite() {
+                    (m, self.pdf(wo, m))
+                } else {
+                    (Vec3::Z, 0.0)
+                });
+            }
+        }
+        out
+    }
+}
+
+/// The direction a visible Beckmann normal is sampled for, stretched to
+/// unit roughness: its polar angle and azimuth.
+struct BeckmannVisibleFrame {
+    cos_theta: f32,
+    sin_theta: f32,
+    cos_phi: f32,
+    sin_phi: f32,
+}
+
+impl BeckmannVisibleFrame {
+    fn new(distr: &Microfacet, wo: Vec3) -> Self {
+        let w = Vec3::new(distr.alpha_u * wo.x, distr.alpha_v * wo.y, wo.z).normalize();
         let sin_theta = (w.x * w.x + w.y * w.y).sqrt();
         let (cos_phi, sin_phi) = if sin_theta > 0.0 {
             (w.x / sin_theta, w.y / sin_theta)
         } else {
             (1.0, 0.0)
         };
-        let s = beckmann_visible_slope(w.z, sin_theta, u);
-        let sx = (cos_phi * s.x - sin_phi * s.y) * self.alpha_u;
-        let sy = (sin_phi * s.x + cos_phi * s.y) * self.alpha_v;
+        Self {
+            cos_theta: w.z,
+            sin_theta,
+            cos_phi,
+            sin_phi,
+        }
+    }
+
+    /// The normal of unit-roughness slope `s` (in the frame of θ = 0 azimuth),
+    /// rotated to the direction's azimuth and stretched back.
+    fn normal(&self, distr: &Microfacet, s: Vec2) -> Vec3 {
+        let sx = (self.cos_phi * s.x - self.sin_phi * s.y) * distr.alpha_u;
+        let sy = (self.sin_phi * s.x + self.cos_phi * s.y) * distr.alpha_v;
         Vec3::new(-sx, -sy, 1.0).normalize()
     }
 }
 
-/// A slope (x̃, ỹ) of the unit-roughness Beckmann surface, visible from a
-/// direction at polar angle θ in the x-z plane, with facet normal
-/// (−x̃, −ỹ, 1). Its density is ∝ max(0, 1 − x̃ tan θ) e^{−x̃² − ỹ²}: ỹ is
-/// Gaussian (variance ½) and x̃ has density ∝ (cot θ − x̃) e^{−x̃²} on
+/// The slope x̃ of a slope (x̃, ỹ) of the unit-roughness Beckmann surface,
+/// visible from a direction at polar angle θ in the x-z plane, with facet
+/// normal (−x̃, −ỹ, 1). Its density is ∝ max(0, 1 − x̃ tan θ) e^{−x̃² − ỹ²}:
+/// ỹ is Gaussian (variance ½, drawn as erfinv(2u − 1)) and x̃ has density ∝ (cot θ − x̃) e^{−x̃²} on
 /// x̃ < cot θ, whose CDF ∝ (√π/2) erfc(−x̃) + (tan θ / 2) e^{−x̃²} is
 /// inverted by safeguarded Newton iteration (Heitz & d'Eon 2014, §4).
-fn beckmann_visible_slope(cos_theta: f32, sin_theta: f32, u: Vec2) -> Vec2 {
-    let y = erfinv(2.0 * u.y - 1.0);
+fn beckmann_visible_slope_x(cos_theta: f32, sin_theta: f32, ux: f32) -> f32 {
     let sqrt_pi = PI.sqrt();
     // Both terms of the CDF are positive (no cancellation at any angle);
     // at normal incidence the second vanishes and x̃ is Gaussian too.
@@ -339,9 +394,9 @@ fn beckmann_visible_slope(cos_theta: f32, sin_theta: f32, u: Vec2) -> Vec2 {
     // Past |x̃| = 6 the remaining mass (< e^{-36}) is below what a 32-bit
     // uniform resolves; cot θ ≥ 0 above the surface.
     let (mut lo, mut hi) = (-6.0f32, cot.min(6.0));
-    let target = u.x * cdf(hi);
+    let target = ux * cdf(hi);
     let f = |x: f32| cdf(x) - target;
-    let mut x = erfinv(2.0 * u.x - 1.0).clamp(lo, hi);
+    let mut x = erfinv(2.0 * ux - 1.0).clamp(lo, hi);
     for _ in 0..40 {
         let fx = f(x);
         if fx > 0.0 {
@@ -361,7 +416,7 @@ fn beckmann_visible_slope(cos_theta: f32, sin_theta: f32, u: Vec2) -> Vec2 {
         }
         x = next;
     }
-    Vec2::new(x, y)
+    x
 }
 
 /// Smith's Λ for the Phong distribution D(m) = (n + 2)/(2π) cos^n θm,
@@ -1027,5 +1082,44 @@ pub(crate) mod tests {
         assert_eq!(d.alpha_u, MIN_TEXTURED_ALPHA);
         let v = d.d(Vec3::Z);
         assert!(v.is_finite() && v > 0.0, "{v}");
+    }
+}
+
+#[cfg(test)]
+mod grid_tests {
+    use super::*;
+
+    /// `sample_grid` gives exactly what `sample` gives node by node, for
+    /// every distribution, visible or not, at grazing and normal incidence.
+    #[test]
+    fn sample_grid_equals_sampling_node_by_node() {
+        let ux = [0.013f32, 0.2, 0.5, 0.77, 0.999];
+        let uy = [0.001f32, 0.31, 0.5, 0.93];
+        for kind in [
+            MicrofacetType::Beckmann,
+            MicrofacetType::Ggx,
+            MicrofacetType::Phong,
+        ] {
+            for visible in [true, false] {
+                let d = Microfacet::isotropic(kind, 0.3, visible);
+                for wo in [
+                    Vec3::Z,
+                    Vec3::new(0.6, 0.0, 0.8),
+                    Vec3::new(0.999, 0.0, 0.0447).normalize(),
+                ] {
+                    let grid = d.sample_grid(wo, &ux, &uy);
+                    for (i, &x) in ux.iter().enumerate() {
+                        for (j, &y) in uy.iter().enumerate() {
+                            let one = d.sample(wo, Vec2::new(x, y));
+                            assert_eq!(
+                                grid[i * uy.len() + j],
+                                one,
+                                "{kind:?} {visible} {wo} {x} {y}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -62,7 +62,9 @@ use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use crate::texture::Tex;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
+use std::sync::LazyLock;
 
 /// Number of cosines at which the transmittance is tabulated (Mitsuba 3's
 /// resolution).
@@ -91,13 +93,24 @@ impl RoughTransmittance {
     /// Integrates the tables for one interface.
     pub fn new(kind: MicrofacetType, alpha: f32, eta: f32) -> Self {
         let distr = Microfacet::isotropic(kind, alpha, true);
+        // The cosines are independent: integrated in parallel, summed in
+        // order (the same values on any number of threads).
+        let per_cosine: Vec<(f32, f32)> = (0..TRANSMITTANCE_RES)
+            .into_par_iter()
+            .map(|k| {
+                let mu = (k as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6);
+                let w = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+                (
+                    transmittance(&distr, w, eta),
+                    reflectance(&distr, w, 1.0 / eta) * mu,
+                )
+            })
+            .collect();
         let mut external = [0.0; TRANSMITTANCE_RES];
         let mut internal = 0.0f64;
-        for (k, t) in external.iter_mut().enumerate() {
-            let mu = (k as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6);
-            let w = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-            *t = transmittance(&distr, w, eta);
-            internal += f64::from(reflectance(&distr, w, 1.0 / eta) * mu);
+        for (t, &(transmitted, reflected)) in external.iter_mut().zip(&per_cosine) {
+            *t = transmitted;
+            internal += f64::from(reflected);
         }
         // 2 ∫ R(µ) µ dµ, discretised as Mitsuba 3 does (twice the plain
         // mean over the table's cosines, not a trapezoid rule), to match
@@ -158,13 +171,14 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 /// error (the peak of D cos θm is not where D_w's is, so the rule is less
 /// accurate there than on the visible normals' own square).
 fn visible_normal_integral(distr: &Microfacet, w: Vec3, eta: f32, g: impl Fn(Vec3) -> f32) -> f32 {
-    let rule = gauss_legendre(if eta > 1.0 { 32 } else { 128 });
+    let rule = if eta > 1.0 { &*RULE_32 } else { &*RULE_128 };
     let visible = distr.samples_visible();
+    let nodes: Vec<f32> = rule.iter().map(|&(x, _)| (0.5 * x + 0.5) as f32).collect();
+    let samples = distr.sample_grid(w, &nodes, &nodes);
     let (mut sum, mut total) = (0.0f64, 0.0f64);
-    for &(x, wx) in &rule {
-        for &(y, wy) in &rule {
-            let u = Vec2::new((0.5 * x + 0.5) as f32, (0.5 * y + 0.5) as f32);
-            let (m, pdf) = distr.sample(w, u);
+    for (i, &(_, wx)) in rule.iter().enumerate() {
+        for (j, &(_, wy)) in rule.iter().enumerate() {
+            let (m, pdf) = samples[i * rule.len() + j];
             if pdf > 0.0 {
                 let ratio = if visible {
                     1.0
@@ -186,6 +200,10 @@ fn visible_normal_integral(distr: &Microfacet, w: Vec3, eta: f32, g: impl Fn(Vec
     // The square has area 1, the rule's domain area 4.
     (0.25 * sum) as f32
 }
+
+/// The two Gauss–Legendre rules the tables use, computed once.
+static RULE_32: LazyLock<Vec<(f64, f64)>> = LazyLock::new(|| gauss_legendre(32));
+static RULE_128: LazyLock<Vec<(f64, f64)>> = LazyLock::new(|| gauss_legendre(128));
 
 /// Fraction of the light arriving from `w` (above) that a rough dielectric
 /// with relative index `eta` refracts through, shadowing included.

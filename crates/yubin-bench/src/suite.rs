@@ -1,0 +1,385 @@
+//! `yubin-bench suite`: time to equal error against Mitsuba 3 on a suite
+//! of scenes, in one run.
+//!
+//! ```text
+//! cargo build --release -p yubin -p yubin-bench
+//! ./target/release/yubin-bench suite [--spp 64] [--ref-spp 1024] [--reps 3]
+//!     [--scenes cornell,glass-metal,...] [--variants llvm_ad_rgb,scalar_rgb]
+//! ```
+//!
+//! Each scene (files in `scenes/` and `scenes/suite/`, written for both
+//! renderers; `mesh.ply` and `sky.exr` are generated here when absent) is
+//! rendered with the `yubin` binary and with Mitsuba 3.9.1 in each
+//! `--variants` variant (`scripts/mitsuba-ref render`), alternating, each
+//! `--reps` times, all at `--spp`. For each the table gives the median
+//! wall time (scene load + render, as each renderer reports them:
+//! process start, Python's import of Mitsuba and the image write are
+//! left out), the relMSE against a converged yubin render at `--ref-spp`
+//! (cached in `out/bench/suite`; both renderers converge to the same
+//! image, as the Z-tests show), the **efficiency ratio** (relMSE × time of
+//! yubin) / (relMSE × time of Mitsuba), the ratio of their times to equal
+//! error, the load times, and the peak resident memory of each process
+//! (GNU time's maximum RSS; Mitsuba's includes its Python interpreter).
+//! The last row is the geometric mean of the efficiency ratios.
+
+use crate::cornell::{rel_mse_rgb, repo_root};
+use anyhow::{bail, Context, Result};
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use yubin_scene::image_io::{read_image, write_image, ColorHandling, Image};
+
+/// The suite: name and scene file (relative to `scenes/`).
+const SCENES: &[(&str, &str)] = &[
+    ("cornell", "cornell-box.xml"),
+    ("glass-metal", "suite/glass-metal.xml"),
+    ("rough", "suite/rough.xml"),
+    ("textures", "suite/textures.xml"),
+    ("mesh", "suite/mesh.xml"),
+    ("envmap", "suite/envmap.xml"),
+    ("dof", "suite/dof.xml"),
+    ("fog", "fog.xml"),
+];
+
+/// One render's measurements.
+#[derive(Clone, Copy, Debug, Default)]
+struct Run {
+    load: f64,
+    total: f64,
+    peak_mb: f64,
+    rel_mse: f64,
+}
+
+pub fn run(args: &[String]) -> Result<()> {
+    let (mut spp, mut ref_spp, mut reps) = (64u32, 1024u32, 3usize);
+    let mut names: Vec<String> = SCENES.iter().map(|(n, _)| n.to_string()).collect();
+    let mut variants = vec!["llvm_ad_rgb".to_string()];
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut value = || it.next().context("option needs a value");
+        match a.as_str() {
+            "--spp" => spp = value()?.parse()?,
+            "--ref-spp" => ref_spp = value()?.parse()?,
+            "--reps" => reps = value()?.parse()?,
+            "--scenes" => names = value()?.split(',').map(str::to_string).collect(),
+            "--variants" => variants = value()?.split(',').map(str::to_string).collect(),
+            other => bail!("unknown option {other}"),
+        }
+    }
+    let root = repo_root();
+    let yubin = root.join("target/release/yubin");
+    if !yubin.exists() {
+        bail!("build the renderer first: cargo build --release -p yubin");
+    }
+    write_assets(&root.join("scenes/suite"))?;
+    let out = root.join("out/bench/suite");
+    std::fs::create_dir_all(&out)?;
+    println!(
+        "{} at {spp} spp, reference {ref_spp} spp (yubin), median of {reps}; CPU: {}\n",
+        names.join(", "),
+        cpu_model()
+    );
+    let mut header = "| scene | yubin s (load) | relMSE | peak MB |".to_string();
+    let mut rule = "|---|---:|---:|---:|".to_string();
+    for v in &variants {
+        header += &format!(" {v} s (load) | relMSE | peak MB | efficiency |");
+        rule += "---:|---:|---:|---:|";
+    }
+    println!("{header}\n{rule}");
+    let mut log_sums = vec![0.0f64; variants.len()];
+    for name in &names {
+        let Some((_, file)) = SCENES.iter().find(|(n, _)| n == name) else {
+            bail!("no scene {name} in the suite");
+        };
+        let scene = root.join("scenes").join(file);
+        let reference = reference(
+            &yubin,
+            &scene,
+            &out.join(format!("{name}-ref-{ref_spp}.exr")),
+            ref_spp,
+        )?;
+        let mut ours = Vec::new();
+        let mut theirs = vec![Vec::new(); variants.len()];
+        for _ in 0..reps {
+            let path = out.join(format!("{name}-yubin.exr"));
+            ours.push(measure_yubin(&yubin, &scene, spp, &path, &reference)?);
+            for (v, variant) in variants.iter().enumerate() {
+                let path = out.join(format!("{name}-{variant}.exr"));
+                theirs[v].push(measure_mitsuba(variant, &scene, spp, &path, &reference)?);
+            }
+        }
+        let y = median_run(&ours);
+        let mut row = format!(
+            "| {name} | {:.2} ({:.2}) | {:.5} | {:.0} |",
+            y.total, y.load, y.rel_mse, y.peak_mb
+        );
+        for (v, runs) in theirs.iter().enumerate() {
+            let m = median_run(runs);
+            let efficiency = (y.rel_mse * y.total) / (m.rel_mse * m.total);
+            log_sums[v] += efficiency.ln();
+            row += &format!(
+                " {:.2} ({:.2}) | {:.5} | {:.0} | {efficiency:.2} |",
+                m.total, m.load, m.rel_mse, m.peak_mb
+            );
+        }
+        println!("{row}");
+    }
+    let mut row = "| geometric mean | | | |".to_string();
+    for s in &log_sums {
+        row += &format!(" | | | {:.2} |", (s / names.len() as f64).exp());
+    }
+    println!("{row}");
+    Ok(())
+}
+
+/// The median of each measurement on its own.
+fn median_run(runs: &[Run]) -> Run {
+    let median = |f: fn(&Run) -> f64| {
+        let mut v: Vec<f64> = runs.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    Run {
+        load: median(|r| r.load),
+        total: median(|r| r.total),
+        peak_mb: median(|r| r.peak_mb),
+        rel_mse: median(|r| r.rel_mse),
+    }
+}
+
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown".into())
+}
+
+/// Runs `program args` under GNU time; returns stdout, stderr and the
+/// peak resident set in MB.
+fn timed(program: &Path, args: &[String]) -> Result<(String, String, f64)> {
+    let out = Command::new("/usr/bin/time")
+        .arg("-f")
+        .arg("PEAK_RSS_KB %M")
+        .arg(program)
+        .args(args)
+        .output()
+        .context("cannot run /usr/bin/time (GNU time)")?;
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    if !out.status.success() {
+        bail!("{} failed: {stdout}{stderr}", program.display());
+    }
+    let kb: f64 = stderr
+        .lines()
+        .rev()
+        .find_map(|l| l.strip_prefix("PEAK_RSS_KB "))
+        .context("no peak memory from GNU time")?
+        .trim()
+        .parse()?;
+    Ok((stdout, stderr, kb / 1024.0))
+}
+
+fn rel_mse(a: &Image, b: &Image) -> f64 {
+    rel_mse_rgb(&a.data, a.channels, &b.data, b.channels)
+}
+
+/// The number after `key` in `text` (up to the next space or "s").
+fn number_after(text: &str, key: &str) -> Result<f64> {
+    let start = text
+        .find(key)
+        .with_context(|| format!("no \"{key}\" in:\n{text}"))?
+        + key.len();
+    let rest = text[start..].trim_start();
+    let end = rest
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(rest.len());
+    Ok(rest[..end].parse()?)
+}
+
+fn render_args(scene: &Path, spp: u32, out: &Path) -> Vec<String> {
+    vec![
+        "render".into(),
+        scene.to_string_lossy().into_owned(),
+        "--spp".into(),
+        spp.to_string(),
+        "-o".into(),
+        out.to_string_lossy().into_owned(),
+    ]
+}
+
+fn measure_yubin(bin: &Path, scene: &Path, spp: u32, out: &Path, reference: &Image) -> Result<Run> {
+    let (_, stderr, peak_mb) = timed(bin, &render_args(scene, spp, out))?;
+    // "OUT: WxH, N spp in R s (load L s, ..."
+    let render = number_after(&stderr, " spp in ")?;
+    let load = number_after(&stderr, "(load ")?;
+    let img = read_image(out, ColorHandling::Raw)?;
+    Ok(Run {
+        load,
+        total: load + render,
+        peak_mb,
+        rel_mse: rel_mse(&img, reference),
+    })
+}
+
+fn measure_mitsuba(
+    variant: &str,
+    scene: &Path,
+    spp: u32,
+    out: &Path,
+    reference: &Image,
+) -> Result<Run> {
+    let mut args = render_args(scene, spp, out);
+    args.extend(["--variant".into(), variant.into()]);
+    let (stdout, _, peak_mb) = timed(&repo_root().join("scripts/mitsuba-ref"), &args)?;
+    let load = number_after(&stdout, "load time:")?;
+    let render = number_after(&stdout, "render time:")?;
+    let img = read_image(out, ColorHandling::Raw)?;
+    Ok(Run {
+        load,
+        total: load + render,
+        peak_mb,
+        rel_mse: rel_mse(&img, reference),
+    })
+}
+
+/// The cached reference, rendered by yubin at `spp` when absent.
+fn reference(bin: &Path, scene: &Path, path: &Path, spp: u32) -> Result<Image> {
+    if !path.exists() {
+        eprintln!("rendering the reference {} ...", path.display());
+        timed(bin, &render_args(scene, spp, path))?;
+    }
+    Ok(read_image(path, ColorHandling::Raw)?)
+}
+
+/// Writes the suite's generated inputs when absent: `mesh.ply` and `sky.exr`.
+fn write_assets(dir: &Path) -> Result<()> {
+    let mesh = dir.join("mesh.ply");
+    if !mesh.exists() {
+        write_mesh(&mesh, 512, 256)?;
+    }
+    let sky = dir.join("sky.exr");
+    if !sky.exists() {
+        write_sky(&sky, 1024, 512)?;
+    }
+    Ok(())
+}
+
+/// The displaced sphere: radius 0.8 modulated by a few sines, on a
+/// `nu` × `nv` latitude-longitude grid (2·nu·(nv − 1) triangles), with
+/// vertex normals from the grid's finite differences, as binary PLY.
+fn write_mesh(path: &PathBuf, nu: usize, nv: usize) -> Result<()> {
+    let point = |u: f32, v: f32| {
+        let (phi, theta) = (u * std::f32::consts::TAU, v * std::f32::consts::PI);
+        let dir = Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.cos(),
+            theta.sin() * phi.sin(),
+        );
+        let r = 0.8
+            + 0.05 * (7.0 * phi).sin() * (5.0 * theta).sin()
+            + 0.015 * (23.0 * phi + 3.0 * theta).sin();
+        dir * r
+    };
+    let mut vertices = Vec::with_capacity(nu * (nv + 1));
+    for j in 0..=nv {
+        for i in 0..nu {
+            let (u, v) = (i as f32 / nu as f32, j as f32 / nv as f32);
+            let (du, dv) = (0.5 / nu as f32, 0.5 / nv as f32);
+            let p = point(u, v);
+            let tu = point(u + du, v) - point(u - du, v);
+            let tv = point(u, (v + dv).min(1.0)) - point(u, (v - dv).max(0.0));
+            // At the poles the φ tangent vanishes: the radial direction.
+            let mut n = tu.cross(tv).normalize_or_zero();
+            if n == Vec3::ZERO {
+                n = p.normalize_or_zero();
+            } else if n.dot(p) < 0.0 {
+                n = -n;
+            }
+            vertices.push((p, n));
+        }
+    }
+    let mut faces = Vec::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            let a = (j * nu + i) as u32;
+            let b = (j * nu + (i + 1) % nu) as u32;
+            let (c, d) = (a + nu as u32, b + nu as u32);
+            if j > 0 {
+                faces.push([a, b, c]);
+            }
+            if j + 1 < nv {
+                faces.push([b, d, c]);
+            }
+        }
+    }
+    let mut bytes = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        vertices.len(),
+        faces.len()
+    )
+    .into_bytes();
+    for (p, n) in &vertices {
+        for v in [p.x, p.y, p.z, n.x, n.y, n.z] {
+            bytes.extend(v.to_le_bytes());
+        }
+    }
+    for f in &faces {
+        bytes.push(3);
+        for i in f {
+            bytes.extend(i.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes)?;
+    eprintln!("wrote {} ({} triangles)", path.display(), faces.len());
+    Ok(())
+}
+
+/// A latitude-longitude sky: blue at the zenith fading to a pale horizon,
+/// a dark ground below it, and a sun 2° across at 35° elevation whose
+/// radiance dwarfs the rest (as real skies do), as EXR.
+fn write_sky(path: &Path, width: usize, height: usize) -> Result<()> {
+    let sun = {
+        let (elevation, azimuth) = (35f32.to_radians(), 120f32.to_radians());
+        Vec3::new(
+            elevation.cos() * azimuth.cos(),
+            elevation.sin(),
+            elevation.cos() * azimuth.sin(),
+        )
+    };
+    let sun_cos = 1f32.to_radians().cos();
+    let mut data = Vec::with_capacity(width * height * 3);
+    for y in 0..height {
+        let theta = (y as f32 + 0.5) / height as f32 * std::f32::consts::PI;
+        for x in 0..width {
+            let phi = (x as f32 + 0.5) / width as f32 * std::f32::consts::TAU;
+            let d = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
+            let rgb = if d.dot(sun) > sun_cos {
+                Vec3::new(4000.0, 3600.0, 3000.0)
+            } else if d.y > 0.0 {
+                let t = d.y.powf(0.4);
+                Vec3::new(0.9, 0.9, 0.95).lerp(Vec3::new(0.25, 0.4, 0.85), t)
+            } else {
+                Vec3::new(0.15, 0.12, 0.1)
+            };
+            data.extend([rgb.x, rgb.y, rgb.z]);
+        }
+    }
+    let img = Image {
+        width,
+        height,
+        channels: 3,
+        data,
+    };
+    write_image(path, &img, &[])?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}
