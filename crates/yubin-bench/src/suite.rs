@@ -147,16 +147,25 @@ fn median_run(runs: &[Run]) -> Run {
     }
 }
 
+/// The CPU's model name, family and model (`/proc/cpuinfo`): virtual
+/// machines often report only "AMD EPYC", which the family and model
+/// narrow to a generation.
 fn cpu_model() -> String {
-    std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|m| m.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown".into())
+    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let field = |key: &str| {
+        info.lines()
+            .find(|l| l.split(':').next().is_some_and(|k| k.trim() == key))
+            .and_then(|l| l.split(':').nth(1))
+            .map(|v| v.trim().to_string())
+            .unwrap_or_else(|| "?".into())
+    };
+    format!(
+        "{} (family {}, model {}), {} threads",
+        field("model name"),
+        field("cpu family"),
+        field("model"),
+        rayon::current_num_threads()
+    )
 }
 
 /// Runs `program args` under GNU time; returns stdout, stderr and the

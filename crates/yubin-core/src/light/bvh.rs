@@ -381,10 +381,10 @@ impl LightBvh {
         let mut i = 0usize;
         loop {
             let node = &self.nodes[i];
+            // A leaf below the root was weighed as its parent's child (a
+            // child without importance is never taken); a lone light is
+            // always chosen, as a light it cannot reach adds nothing.
             if node.leaf {
-                if node.lb.importance(p, n) <= 0.0 {
-                    return None;
-                }
                 return Some((self.lights[node.index as usize], pmf));
             }
             let (a, b, pa) = self.children(i, p, n)?;
@@ -436,11 +436,7 @@ impl LightBvh {
         for depth in 0..MAX_DEPTH {
             let node = &self.nodes[i];
             if node.leaf {
-                return if node.lb.importance(p, n) > 0.0 {
-                    pmf
-                } else {
-                    0.0
-                };
+                return pmf;
             }
             let Some((a, b, pa)) = self.children(i, p, n) else {
                 return 0.0;
