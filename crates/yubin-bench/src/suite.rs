@@ -226,6 +226,11 @@ fn measure_yubin(bin: &Path, scene: &Path, spp: u32, out: &Path, reference: &Ima
     // "OUT: WxH, N spp in R s (load L s, ..."
     let render = number_after(&stderr, " spp in ")?;
     let load = number_after(&stderr, "(load ")?;
+    finish_run(load, render, peak_mb, out, reference)
+}
+
+/// The run's measurements, its image compared with the reference.
+fn finish_run(load: f64, render: f64, peak_mb: f64, out: &Path, reference: &Image) -> Result<Run> {
     let img = read_image(out, ColorHandling::Raw)?;
     Ok(Run {
         load,
@@ -247,13 +252,7 @@ fn measure_mitsuba(
     let (stdout, _, peak_mb) = timed(&repo_root().join("scripts/mitsuba-ref"), &args)?;
     let load = number_after(&stdout, "load time:")?;
     let render = number_after(&stdout, "render time:")?;
-    let img = read_image(out, ColorHandling::Raw)?;
-    Ok(Run {
-        load,
-        total: load + render,
-        peak_mb,
-        rel_mse: rel_mse(&img, reference),
-    })
+    finish_run(load, render, peak_mb, out, reference)
 }
 
 /// The cached reference, rendered by yubin at `spp` when absent.

@@ -651,18 +651,17 @@ fn ocio_errors_name_the_problem_and_write_nothing() {
     let dir = TempDir::new("ocio_errors");
     dir.write("scene.xml", scene(SPHERE));
     dir.write("config.ocio", OCIO_CONFIG);
-    let render = |extra: &[&str]| {
-        let mut args = vec![
-            "render",
-            "scene.xml",
-            "-o",
-            "out.png",
-            "--quiet",
-            "--ocio",
-            "config.ocio",
-        ];
+    // `yubin render scene.xml -o out.png --quiet` with `extra`, and the
+    // same with the config.
+    let plain = |extra: &[&str]| {
+        let mut args = vec!["render", "scene.xml", "-o", "out.png", "--quiet"];
         args.extend_from_slice(extra);
         args.into_iter().map(str::to_string).collect::<Vec<_>>()
+    };
+    let render = |extra: &[&str]| {
+        let mut args = vec!["--ocio", "config.ocio"];
+        args.extend_from_slice(extra);
+        plain(&args)
     };
     let fails = |args: Vec<String>| {
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
@@ -688,48 +687,12 @@ fn ocio_errors_name_the_problem_and_write_nothing() {
     assert_mentions(&stderr, &["P3", "sRGB"]);
     // Not a config at all, and a missing one.
     dir.write("broken.ocio", "colorspaces: [\n");
-    let stderr = expect_failure(
-        &dir,
-        &[
-            "render",
-            "scene.xml",
-            "-o",
-            "out.png",
-            "--quiet",
-            "--ocio",
-            "broken.ocio",
-        ],
-        1,
-    );
+    let stderr = fails(plain(&["--ocio", "broken.ocio"]));
     assert_mentions(&stderr, &["broken.ocio"]);
-    let stderr = expect_failure(
-        &dir,
-        &[
-            "render",
-            "scene.xml",
-            "-o",
-            "out.png",
-            "--quiet",
-            "--ocio",
-            "nowhere.ocio",
-        ],
-        1,
-    );
+    let stderr = fails(plain(&["--ocio", "nowhere.ocio"]));
     assert_mentions(&stderr, &["nowhere.ocio"]);
     // A view without a config, and both a config and a tone curve.
-    let stderr = expect_failure(
-        &dir,
-        &[
-            "render",
-            "scene.xml",
-            "-o",
-            "out.png",
-            "--quiet",
-            "--view",
-            "Filmic",
-        ],
-        1,
-    );
+    let stderr = fails(plain(&["--view", "Filmic"]));
     assert_mentions(&stderr, &["--ocio"]);
     let stderr = fails(render(&["--tonemap", "filmic"]));
     assert_mentions(&stderr, &["--tonemap", "--ocio"]);
