@@ -77,13 +77,28 @@ impl DisplayArgs {
         };
         let view = match config {
             Some(path) => {
-                let config = Config::load(&path)?;
-                let processor = config.display_processor(
-                    args.display.as_deref(),
-                    args.view.as_deref(),
-                    args.look.as_deref(),
-                )?;
-                View::Ocio(Arc::new(processor))
+                let processor = Config::load(&path).and_then(|config| {
+                    config.display_processor(
+                        args.display.as_deref(),
+                        args.view.as_deref(),
+                        args.look.as_deref(),
+                    )
+                });
+                let asked = args.ocio.is_some()
+                    || args.display.is_some()
+                    || args.view.is_some()
+                    || args.look.is_some();
+                match processor {
+                    Ok(p) => View::Ocio(Arc::new(p)),
+                    Err(e) if asked => return Err(e.into()),
+                    // A config that only the environment names, for other
+                    // programs perhaps, does not stop a render: as Blender
+                    // does, fall back to the built-in view.
+                    Err(e) => {
+                        eprintln!("warning: $OCIO: {e}; PNG/JPEG output uses the srgb curve");
+                        View::Curve(ToneCurve::Srgb)
+                    }
+                }
             }
             None => {
                 if args.display.is_some() || args.view.is_some() || args.look.is_some() {

@@ -64,6 +64,7 @@ fn yubin(dir: &TempDir, args: &[&str]) -> Output {
         .args(args)
         .current_dir(dir.path())
         .env_remove("RUST_BACKTRACE")
+        .env_remove("OCIO")
         .output()
         .expect("cannot run the yubin binary")
 }
@@ -696,6 +697,30 @@ fn ocio_errors_name_the_problem_and_write_nothing() {
     assert_mentions(&stderr, &["--ocio"]);
     let stderr = fails(render(&["--tonemap", "filmic"]));
     assert_mentions(&stderr, &["--tonemap", "--ocio"]);
+    // A broken config that only $OCIO names: a warning, the srgb curve;
+    // with a view asked for, the error.
+    let out = Command::new(YUBIN)
+        .args(plain(&[]))
+        .current_dir(dir.path())
+        .env("OCIO", "broken.ocio")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning: $OCIO") && stderr.contains("broken.ocio"),
+        "{stderr}"
+    );
+    assert!(dir.path().join("out.png").exists());
+    std::fs::remove_file(dir.path().join("out.png")).unwrap();
+    let out = Command::new(YUBIN)
+        .args(plain(&["--view", "Filmic"]))
+        .current_dir(dir.path())
+        .env("OCIO", "broken.ocio")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(!dir.path().join("out.png").exists());
     // The same config renders through its valid view and look.
     let args = render(&["--view", "Standard", "--look", "Bright"]);
     let out = yubin(&dir, &args.iter().map(String::as_str).collect::<Vec<_>>());
