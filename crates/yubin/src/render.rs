@@ -15,6 +15,7 @@ use std::time::{Duration, Instant};
 use yubin_core::filter::Filter;
 use yubin_core::integrator::{DenoiserGuides, Guide, PathIntegrator};
 use yubin_core::render::{render, Adaptive, Progressive, RenderOutput, RenderSettings};
+use yubin_scene::tonemap::View;
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
 
 /// The built-in demo scene.
@@ -271,6 +272,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     write_output(&output, &out, &display)
         .with_context(|| format!("cannot write {}", output.display()))?;
     if !args.quiet {
+        if let (View::Ocio(p), false) = (&display.view, output_is_exr(&output)) {
+            eprintln!("{}: shown through OCIO {}", output.display(), p.description);
+        }
         let passes = if passes {
             format!(" in {passes_done} passes")
         } else {
@@ -498,6 +502,11 @@ fn set_crop(loaded: &mut LoadedScene, [x, y, w, h]: [u32; 4]) -> Result<()> {
 
 /// Fails before rendering, not after, when the output can't be written
 /// in the format its extension names.
+fn output_is_exr(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
 fn check_output_format(path: &Path) -> Result<()> {
     let ext = path
         .extension()
