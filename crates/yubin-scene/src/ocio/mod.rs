@@ -386,7 +386,10 @@ impl Config {
         if !applied.is_empty() {
             description += &format!(" ({})", applied.join(", "));
         }
-        Ok(Processor { ops, description })
+        Ok(Processor {
+            ops: ops::fuse_matrices(ops),
+            description,
+        })
     }
 
     /// Operations from colour space `src` to `dst`.

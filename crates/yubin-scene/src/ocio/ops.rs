@@ -163,6 +163,27 @@ impl Op {
     }
 }
 
+/// `ops` with every run of consecutive matrices multiplied into one (in
+/// f64; OpenColorIO's optimizer does the same): colour space changes
+/// through the reference space chain three or four of them.
+pub fn fuse_matrices(ops: Vec<Op>) -> Vec<Op> {
+    let mut out: Vec<Op> = Vec::with_capacity(ops.len());
+    for op in ops {
+        if let (Some(Op::Matrix { m: m1, offset: o1 }), Op::Matrix { m: m2, offset: o2 }) =
+            (out.last_mut(), &op)
+        {
+            // (m2 · (m1 x + o1) + o2) = (m2 m1) x + (m2 o1 + o2)
+            let m = [0, 1, 2].map(|i| [0, 1, 2].map(|j| (0..3).map(|k| m2[i][k] * m1[k][j]).sum()));
+            let o = mul3(m2, o1);
+            *o1 = [0, 1, 2].map(|i| o[i] + o2[i]);
+            *m1 = m;
+            continue;
+        }
+        out.push(op);
+    }
+    out
+}
+
 /// The monitor curve of gamma `g` and offset `o` (sRGB: 2.4, 0.055):
 /// decoding (x + o)/(1 + o))^g above the break point x_b = o/(g − 1),
 /// linear below it, the two meeting with equal value and slope; `encode`
@@ -363,6 +384,35 @@ mod tests {
 
     fn close(a: [f32; 3], b: [f32; 3], tol: f32) -> bool {
         (0..3).all(|i| (a[i] - b[i]).abs() <= tol)
+    }
+
+    /// Fused matrices give what applying them one after the other gives.
+    #[test]
+    fn fused_matrices_equal_the_chain() {
+        let a = Op::Matrix {
+            m: [[0.9, 0.1, 0.0], [0.2, 0.7, 0.1], [0.0, 0.3, 0.8]],
+            offset: [0.01, 0.0, -0.02],
+        };
+        let b = Op::Matrix {
+            m: [[1.5, -0.3, 0.1], [0.0, 1.1, 0.0], [0.2, 0.0, 0.9]],
+            offset: [0.0, 0.05, 0.0],
+        };
+        let chain = vec![
+            a.clone(),
+            b.clone(),
+            Op::Log {
+                base: 2.0,
+                inverse: false,
+            },
+            a,
+            b,
+        ];
+        let fused = fuse_matrices(chain.clone());
+        assert_eq!(fused.len(), 3);
+        let x = [0.3f32, 0.6, 0.2];
+        let one = chain.iter().fold(x, |v, op| op.apply(v));
+        let two = fused.iter().fold(x, |v, op| op.apply(v));
+        assert!(close(one, two, 1e-6), "{one:?} {two:?}");
     }
 
     /// Every invertible operation undoes itself: matrix, log, power, the
