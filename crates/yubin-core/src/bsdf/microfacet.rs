@@ -394,11 +394,20 @@ fn beckmann_visible_slope_x(cos_theta: f32, sin_theta: f32, ux: f32) -> f32 {
     // Past |x̃| = 6 the remaining mass (< e^{-36}) is below what a 32-bit
     // uniform resolves; cot θ ≥ 0 above the surface.
     let (mut lo, mut hi) = (-6.0f32, cot.min(6.0));
-    let target = ux * cdf(hi);
+    let total = cdf(hi);
+    let target = ux * total;
     let f = |x: f32| cdf(x) - target;
+    // Done once the CDF is within a few of its f32 roundings (2⁻²⁴ of the
+    // total) of the target: in the tails, where the density is small,
+    // rounding noise in the CDF would keep the steps from ever getting
+    // below a fixed tolerance on x.
+    let resolution = 2.0 * f32::EPSILON * total;
     let mut x = erfinv(2.0 * ux - 1.0).clamp(lo, hi);
     for _ in 0..40 {
         let fx = f(x);
+        if fx.abs() <= resolution {
+            break;
+        }
         if fx > 0.0 {
             hi = x;
         } else {
