@@ -28,7 +28,7 @@
 use crate::image_io::{linear_to_srgb, Image};
 use crate::ocio::Processor;
 use rayon::prelude::*;
-use std::sync::Arc;
+use std::sync::{Arc, LazyLock};
 
 /// A tone curve.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -81,6 +81,9 @@ fn mat3_mul(m: &[[f32; 3]; 3], v: [f32; 3]) -> [f32; 3] {
     [0, 1, 2].map(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
 }
 
+/// The outset: the inset's inverse, computed once.
+static AGX_OUTSET: LazyLock<[[f32; 3]; 3]> = LazyLock::new(|| mat3_inverse(&AGX_INSET));
+
 fn mat3_inverse(m: &[[f32; 3]; 3]) -> [[f32; 3]; 3] {
     let cols = glam::Mat3::from_cols_array_2d(m).transpose().inverse();
     cols.transpose().to_cols_array_2d()
@@ -111,7 +114,7 @@ fn agx(rgb: [f32; 3]) -> [f32; 3] {
         let t = ((v.max(1e-10) / 0.18).log2() + AGX_STOPS_BELOW) / range;
         agx_sigmoid(t.clamp(0.0, 1.0))
     });
-    let outset = mat3_mul(&mat3_inverse(&AGX_INSET), shaped);
+    let outset = mat3_mul(&AGX_OUTSET, shaped);
     outset.map(|v| v.clamp(0.0, 1.0).powf(AGX_GAMMA))
 }
 
