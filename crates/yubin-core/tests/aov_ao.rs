@@ -235,7 +235,11 @@ fn aov_normal_of_a_sphere_and_zero_for_misses() {
         let d = out.image.get(x, y, dd);
         assert!((d - (HEIGHT - 2.0 * r - NEAR)).abs() < 0.01, "depth {d}");
     }
-    assert!(n_sum.x.abs() < 0.02 && n_sum.y.abs() < 0.02, "{n_sum}");
+    // Symmetric about the axis up to the noise of 16 random film offsets
+    // per pixel: each pixel's mean offset has σ = 0.29 / 4 pixel, a pixel
+    // is 0.26 r, so each component of the sum has σ ≈ 2 · 0.26 · 0.072 =
+    // 0.04. A half-pixel shift of the AOV would put 0.5 there.
+    assert!(n_sum.x.abs() < 0.15 && n_sum.y.abs() < 0.15, "{n_sum}");
     // The main RGB is the nested path tracer's.
     for px in 0..(RES * RES) as usize {
         let v = &out.image.data[px * out.image.channels..];

@@ -198,6 +198,7 @@ impl Sampler {
             sampler: *self,
             pixel_key,
             index,
+            sample_key: independent::sample_key(pixel_key, index),
             dim: 0,
             block: 0,
             block_index: 0,
@@ -212,6 +213,9 @@ pub struct SampleStream {
     pixel_key: u32,
     /// The sample's index (in its pattern, for the pattern samplers).
     index: u32,
+    /// Hash of (pixel key, index): the independent values' key, so that
+    /// each dimension costs one hash.
+    sample_key: u32,
     dim: u32,
     /// `orthogonal`: the block of dimensions (plus one; 0: none yet) whose
     /// sample order `block_index` holds.
@@ -238,9 +242,7 @@ impl SampleStream {
         let i = self.index;
         match self.sampler {
             Sampler::Sobol(_) if d < sobol::DIMENSIONS => sobol::sample(i, d, self.pixel_key),
-            Sampler::Independent(_) | Sampler::Sobol(_) => {
-                independent::sample(self.pixel_key, i, d)
-            }
+            Sampler::Independent(_) | Sampler::Sobol(_) => independent::sample(self.sample_key, d),
             Sampler::Stratified(s) => s.sample_1d(i, self.key(d)).min(ONE_MINUS_EPSILON),
             Sampler::MultiJitter(s) => s.sample_1d(i, self.key(d)).min(ONE_MINUS_EPSILON),
             Sampler::Orthogonal(s) => {
@@ -397,6 +399,55 @@ mod tests {
                     "{s:?}"
                 );
             }
+        }
+    }
+
+    /// The independent sampler's values are uniform on [0, 1)² and
+    /// independent for every pairing a render relies on: neighbouring
+    /// dimensions, distant dimensions, the same dimension of consecutive
+    /// samples and of neighbouring pixels (chi-square on a 16 × 16 grid,
+    /// Šidák-corrected over the pairings).
+    #[test]
+    fn chi2_independent_pairs_are_uniform() {
+        let s = Sampler::Independent(Independent { sample_count: 64 });
+        let value = |x: u32, y: u32, i: u32, dim: usize| {
+            let mut st = s.stream(x, y, i, 0);
+            (0..dim).for_each(|_| {
+                st.next_1d();
+            });
+            st.next_1d()
+        };
+        type Pair = fn(&dyn Fn(u32, u32, u32, usize) -> f32, u32, u32, u32) -> (f32, f32);
+        let pairings: [(&str, Pair); 5] = [
+            ("dims 0 and 1", |v, x, y, i| (v(x, y, i, 0), v(x, y, i, 1))),
+            ("dims 3 and 4", |v, x, y, i| (v(x, y, i, 3), v(x, y, i, 4))),
+            ("dims 2 and 40", |v, x, y, i| {
+                (v(x, y, i, 2), v(x, y, i, 40))
+            }),
+            ("samples i and i+1", |v, x, y, i| {
+                (v(x, y, i, 5), v(x, y, i + 1, 5))
+            }),
+            ("pixels x and x+1", |v, x, y, i| {
+                (v(x, y, i, 5), v(x + 1, y, i, 5))
+            }),
+        ];
+        const GRID: usize = 16;
+        let alpha = 1.0 - (1.0 - 1e-3f64).powf(1.0 / pairings.len() as f64);
+        for (name, pair) in pairings {
+            let mut counts = vec![0u64; GRID * GRID];
+            for y in 0..32 {
+                for x in 0..32 {
+                    for i in 0..64 {
+                        let (a, b) = pair(&value, x, y, i);
+                        let cell = (a * GRID as f32) as usize * GRID + (b * GRID as f32) as usize;
+                        counts[cell] += 1;
+                    }
+                }
+            }
+            let n: u64 = counts.iter().sum();
+            let expected = vec![n as f64 / (GRID * GRID) as f64; GRID * GRID];
+            crate::testing::chi2::chi2_discrete(&counts, &expected, alpha)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
         }
     }
 
