@@ -104,7 +104,7 @@ fn furnace_index_matched_media_render_as_the_environment() {
         ),
     ];
     for (label, medium) in media {
-        assert_uniform(&furnace(medium), 32, 8, 0.5, label);
+        assert_uniform(&furnace(medium), 32, 32, 0.5, label);
     }
 }
 

@@ -238,6 +238,23 @@ impl Microfacet {
         self.d(m) * self.g1(wo, m) * wo.dot(m).abs() / wo.z.abs()
     }
 
+    /// D(m) G(wi, wo, m) and the density [`Microfacet::pdf`]`(wo, m)`,
+    /// sharing D(m) and G1(wo, m): the same values as computed apart.
+    #[inline]
+    pub fn dg_and_pdf(&self, wo: Vec3, wi: Vec3, m: Vec3) -> (f32, f32) {
+        let dm = self.d(m);
+        let g1_wo = self.g1(wo, m);
+        let dg = dm * (self.g1(wi, m) * g1_wo);
+        let pdf = if !self.samples_visible() {
+            dm * m.z
+        } else if wo.z == 0.0 {
+            0.0
+        } else {
+            dm * g1_wo * wo.dot(m).abs() / wo.z.abs()
+        };
+        (dg, pdf)
+    }
+
     /// D(m) cos θm: the slope distribution at unit roughness, whose radial
     /// CDF inverts in closed form, stretched by (αu, αv).
     fn sample_all(&self, u: Vec2) -> Vec3 {

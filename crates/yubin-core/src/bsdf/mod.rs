@@ -190,6 +190,21 @@ pub trait BsdfModel {
         wo: Vec3,
         wi: Vec3,
     ) -> f32;
+    /// [`BsdfModel::eval`] and [`BsdfModel::pdf`] at once, as a light
+    /// sample weighed by MIS needs them; the same values, with the work
+    /// they share (half vector, D, G1 of `wo`) done once where a model
+    /// overrides it.
+    #[inline]
+    fn eval_pdf(
+        &self,
+        m: &Materials,
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Rgb, f32) {
+        (self.eval(m, ctx, si, wo, wi), self.pdf(m, ctx, si, wo, wi))
+    }
 }
 
 /// A BSDF (closed enum; see the module docs).
@@ -451,6 +466,17 @@ impl BsdfModel for Bsdf {
     ) -> f32 {
         dispatch!(self, b => b.pdf(m, ctx, si, wo, wi))
     }
+    #[inline]
+    fn eval_pdf(
+        &self,
+        m: &Materials,
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Rgb, f32) {
+        dispatch!(self, b => b.eval_pdf(m, ctx, si, wo, wi))
+    }
 }
 
 #[cfg(test)]
@@ -543,10 +569,30 @@ pub(crate) mod tests {
             },
             |wi| b.pdf(m, &ctx, &si, wo, wi),
         )?;
-        match bad_weight {
-            Some(msg) => Err(msg),
-            None => Ok(()),
+        if let Some(msg) = bad_weight {
+            return Err(msg);
         }
+        check_eval_pdf(m, id, wo)
+    }
+
+    /// The fused [`BsdfModel::eval_pdf`] gives what `eval` and `pdf` give
+    /// apart (to rounding: the models may multiply in another order).
+    fn check_eval_pdf(m: &Materials, id: usize, wo: Vec3) -> Result<(), String> {
+        let (b, si, ctx) = (m.bsdfs[id], flat_si(), BsdfContext::default());
+        let mut rng = Pcg32::new(17, 3);
+        let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs()).max(1e-3);
+        for _ in 0..500 {
+            let wi = crate::sampling::square_to_uniform_sphere(rng.next_2d());
+            let (f, pdf) = b.eval_pdf(m, &ctx, &si, wo, wi);
+            let (f_apart, pdf_apart) = (b.eval(m, &ctx, &si, wo, wi), b.pdf(m, &ctx, &si, wo, wi));
+            let same_f = (0..3).all(|c| close(f[c], f_apart[c]));
+            if !same_f || !close(pdf, pdf_apart) {
+                return Err(format!(
+                    "eval_pdf gives ({f}, {pdf}), eval and pdf ({f_apart}, {pdf_apart}) at wo {wo}, wi {wi}"
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Helmholtz reciprocity f(wo, wi)/|cos wi| = f(wi, wo)/|cos wo|.

@@ -409,6 +409,39 @@ impl BsdfModel for RoughPlastic {
         let specular = self.roughness.at(m, si).pdf(wo, h) / (4.0 * wi.dot(h));
         p_spec * specular + (1.0 - p_spec) * cosine_hemisphere_pdf(wi)
     }
+
+    #[inline]
+    fn eval_pdf(
+        &self,
+        m: &Materials,
+        _: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let distr = self.roughness.at(m, si);
+        let h = (wo + wi).normalize();
+        let (dg, pdf_h) = distr.dg_and_pdf(wo, wi, h);
+        let f = fresnel_dielectric(wo.dot(h), self.eta).0;
+        let specular = self.specular_reflectance.eval(m, si) * (f * dg / (4.0 * wo.z));
+        let tables = self.tables(m);
+        let external_wo = tables.external_at(wo.z);
+        let rho = self.diffuse_reflectance.eval(m, si);
+        let r = tables.internal_reflectance;
+        let denom = if self.nonlinear {
+            Rgb::ONE - rho * r
+        } else {
+            Rgb::splat(1.0 - r)
+        };
+        let t = external_wo * tables.external_at(wi.z);
+        let value = specular + rho / denom * (FRAC_1_PI * t * wi.z / (self.eta * self.eta));
+        let p_spec = self.prob_specular(m, external_wo);
+        let pdf = p_spec * (pdf_h / (4.0 * wi.dot(h))) + (1.0 - p_spec) * cosine_hemisphere_pdf(wi);
+        (value, pdf)
+    }
 }
 
 #[cfg(test)]

@@ -130,6 +130,19 @@ impl BsdfModel for TwoSided {
         let (b, wo, wi) = self.facing(m, wo, wi);
         b.pdf(m, ctx, si, wo, wi)
     }
+
+    #[inline]
+    fn eval_pdf(
+        &self,
+        m: &Materials,
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Rgb, f32) {
+        let (b, wo, wi) = self.facing(m, wo, wi);
+        b.eval_pdf(m, ctx, si, wo, wi)
+    }
 }
 
 #[cfg(test)]

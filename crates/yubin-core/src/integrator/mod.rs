@@ -323,7 +323,17 @@ pub(crate) fn sample_light(
     };
     let bsdf_ctx = BsdfContext::default();
     let wi_local = si.to_local(ls.wi);
-    let f = bsdf.eval(&scene.materials, &bsdf_ctx, si, wo_local, wi_local);
+    // Lights hidden from indirect rays cannot be found by BSDF sampling:
+    // light sampling is then their only strategy, and needs no BSDF density.
+    let mis = !ls.is_delta && scene.emitter_options[light.emitter as usize].visible_indirect;
+    let (f, bsdf_pdf) = if mis {
+        bsdf.eval_pdf(&scene.materials, &bsdf_ctx, si, wo_local, wi_local)
+    } else {
+        (
+            bsdf.eval(&scene.materials, &bsdf_ctx, si, wo_local, wi_local),
+            0.0,
+        )
+    };
     if f == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -337,13 +347,10 @@ pub(crate) fn sample_light(
         return Rgb::ZERO;
     }
     let light_pdf = ls.pdf * pick_pdf;
-    // Lights hidden from indirect rays cannot be found by BSDF sampling:
-    // light sampling is then their only strategy.
-    let w = if ls.is_delta || !scene.emitter_options[light.emitter as usize].visible_indirect {
-        1.0
-    } else {
-        let bsdf_pdf = bsdf.pdf(&scene.materials, &bsdf_ctx, si, wo_local, wi_local);
+    let w = if mis {
         power_heuristic(light_pdf * light_count_ratio, bsdf_pdf)
+    } else {
+        1.0
     };
     f * ls.radiance * (tr * w / light_pdf)
 }

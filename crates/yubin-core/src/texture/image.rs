@@ -114,6 +114,12 @@ impl TexImage {
     pub fn texel(&self, x: u32, y: u32, decode: bool) -> Vec4 {
         let c = self.channels as usize;
         let i = (y as usize * self.width as usize + x as usize) * c;
+        // Linear float RGB(A), what HDR maps hold: read straight through,
+        // without a per-channel match on the storage.
+        if let (ImageData::F32(d), false, 3 | 4) = (&self.data, decode && self.encoded, c) {
+            let a = if c == 4 { d[i + 3] } else { 1.0 };
+            return Vec4::new(d[i], d[i + 1], d[i + 2], a);
+        }
         match c {
             1 => {
                 let v = self.value(i, decode);
