@@ -2,6 +2,7 @@
 //! `envmap` (its image) and `preetham` (its sampling table): +y is up
 //! (v = 0 at the zenith, v = θ/π), and u = atan2(x, −z) / 2π.
 
+use crate::math::atan2;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -10,9 +11,11 @@ const INV_2PI: f32 = 0.5 * FRAC_1_PI;
 /// The (u, v) of unit direction `d`.
 #[inline]
 pub(crate) fn uv_of(d: Vec3) -> Vec2 {
+    // θ as the angle of (y, sin θ): no acos, and exact near the poles.
+    let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
     Vec2::new(
-        d.x.atan2(-d.z) * INV_2PI,
-        d.y.clamp(-1.0, 1.0).acos() * FRAC_1_PI,
+        atan2(d.x, -d.z) * INV_2PI,
+        atan2(sin_theta, d.y) * FRAC_1_PI,
     )
 }
 

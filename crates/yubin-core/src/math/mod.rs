@@ -1,9 +1,11 @@
 //! Rays, bounding boxes, orthonormal frames and transforms (`f32`, glam).
 
+mod atan;
 mod bounds;
 mod frame;
 mod transform;
 
+pub use atan::atan2;
 pub use bounds::Bounds3;
 pub use frame::{coordinate_system, Frame};
 pub use transform::Transform;

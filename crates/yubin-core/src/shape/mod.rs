@@ -316,7 +316,7 @@ impl ShapeModel for Shape {
 /// disk and cylinder parameterizations.
 #[inline]
 pub(crate) fn azimuth(x: f32, y: f32) -> f32 {
-    let phi = y.atan2(x);
+    let phi = crate::math::atan2(y, x);
     if phi < 0.0 {
         phi + 2.0 * std::f32::consts::PI
     } else {

@@ -132,7 +132,7 @@ impl Sphere {
     fn uv_of(&self, outward: Vec3) -> (Vec2, f32, f32) {
         let local = self.rotation.transpose() * outward;
         let phi = azimuth(local.x, local.y);
-        let theta = local.z.clamp(-1.0, 1.0).acos();
+        let theta = crate::math::atan2(local.x.hypot(local.y), local.z);
         (Vec2::new(phi / (2.0 * PI), theta / PI), phi, theta)
     }
 }
