@@ -11,10 +11,12 @@
 //! renderers; `mesh.ply` and `sky.exr` are generated here when absent) is
 //! rendered with the `yubin` binary and with Mitsuba 3.9.1 in each
 //! `--variants` variant (`scripts/mitsuba-ref render`), alternating, each
-//! `--reps` times, all at `--spp`. For each the table gives the median
-//! wall time (scene load + render, as each renderer reports them:
-//! process start, Python's import of Mitsuba and the image write are
-//! left out), the relMSE against a converged yubin render at `--ref-spp`
+//! `--reps` times, all at `--spp`, repetition k with seed k (both
+//! renderers). For each the table gives the median wall time (scene load
+//! + render, as each renderer reports them: process start, Python's
+//! import of Mitsuba and the image write are left out), the mean over
+//! the repetitions of the relMSE against a converged yubin render at
+//! `--ref-spp` with seed 0, which no measured run shares samples with
 //! (cached in `out/bench/suite`; both renderers converge to the same
 //! image, as the Z-tests show), the **efficiency ratio** (relMSE × time of
 //! yubin) / (relMSE × time of Mitsuba), the ratio of their times to equal
@@ -100,12 +102,18 @@ pub fn run(args: &[String]) -> Result<()> {
         )?;
         let mut ours = Vec::new();
         let mut theirs = vec![Vec::new(); variants.len()];
-        for _ in 0..reps {
+        // Each repetition renders with its own seed (the reference has
+        // seed 0): the relMSE is then an average over independent noise,
+        // and no run shares samples with the reference.
+        for rep in 0..reps {
+            let seed = rep as u32 + 1;
             let path = out.join(format!("{name}-yubin.exr"));
-            ours.push(measure_yubin(&yubin, &scene, spp, &path, &reference)?);
+            ours.push(measure_yubin(&yubin, &scene, spp, seed, &path, &reference)?);
             for (v, variant) in variants.iter().enumerate() {
                 let path = out.join(format!("{name}-{variant}.exr"));
-                theirs[v].push(measure_mitsuba(variant, &scene, spp, &path, &reference)?);
+                theirs[v].push(measure_mitsuba(
+                    variant, &scene, spp, seed, &path, &reference,
+                )?);
             }
         }
         let y = median_run(&ours);
@@ -132,7 +140,8 @@ pub fn run(args: &[String]) -> Result<()> {
     Ok(())
 }
 
-/// The median of each measurement on its own.
+/// The median of each measurement on its own, but the mean relMSE: the
+/// runs' seeds differ, and the expected error is what efficiency compares.
 fn median_run(runs: &[Run]) -> Run {
     let median = |f: fn(&Run) -> f64| {
         let mut v: Vec<f64> = runs.iter().map(f).collect();
@@ -143,7 +152,7 @@ fn median_run(runs: &[Run]) -> Run {
         load: median(|r| r.load),
         total: median(|r| r.total),
         peak_mb: median(|r| r.peak_mb),
-        rel_mse: median(|r| r.rel_mse),
+        rel_mse: runs.iter().map(|r| r.rel_mse).sum::<f64>() / runs.len() as f64,
     }
 }
 
@@ -210,19 +219,28 @@ fn number_after(text: &str, key: &str) -> Result<f64> {
     Ok(rest[..end].parse()?)
 }
 
-fn render_args(scene: &Path, spp: u32, out: &Path) -> Vec<String> {
+fn render_args(scene: &Path, spp: u32, seed: u32, out: &Path) -> Vec<String> {
     vec![
         "render".into(),
         scene.to_string_lossy().into_owned(),
         "--spp".into(),
         spp.to_string(),
+        "--seed".into(),
+        seed.to_string(),
         "-o".into(),
         out.to_string_lossy().into_owned(),
     ]
 }
 
-fn measure_yubin(bin: &Path, scene: &Path, spp: u32, out: &Path, reference: &Image) -> Result<Run> {
-    let (_, stderr, peak_mb) = timed(bin, &render_args(scene, spp, out))?;
+fn measure_yubin(
+    bin: &Path,
+    scene: &Path,
+    spp: u32,
+    seed: u32,
+    out: &Path,
+    reference: &Image,
+) -> Result<Run> {
+    let (_, stderr, peak_mb) = timed(bin, &render_args(scene, spp, seed, out))?;
     // "OUT: WxH, N spp in R s (load L s, ..."
     let render = number_after(&stderr, " spp in ")?;
     let load = number_after(&stderr, "(load ")?;
@@ -244,10 +262,11 @@ fn measure_mitsuba(
     variant: &str,
     scene: &Path,
     spp: u32,
+    seed: u32,
     out: &Path,
     reference: &Image,
 ) -> Result<Run> {
-    let mut args = render_args(scene, spp, out);
+    let mut args = render_args(scene, spp, seed, out);
     args.extend(["--variant".into(), variant.into()]);
     let (stdout, _, peak_mb) = timed(&repo_root().join("scripts/mitsuba-ref"), &args)?;
     let load = number_after(&stdout, "load time:")?;
@@ -259,7 +278,7 @@ fn measure_mitsuba(
 fn reference(bin: &Path, scene: &Path, path: &Path, spp: u32) -> Result<Image> {
     if !path.exists() {
         eprintln!("rendering the reference {} ...", path.display());
-        timed(bin, &render_args(scene, spp, path))?;
+        timed(bin, &render_args(scene, spp, 0, path))?;
     }
     Ok(read_image(path, ColorHandling::Raw)?)
 }

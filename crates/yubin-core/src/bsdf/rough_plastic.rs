@@ -310,6 +310,22 @@ impl RoughPlastic {
         &m.rough_transmittance[self.transmittance as usize]
     }
 
+    /// The diffuse base's f · cos θi, seen through the coating: `t_o` is
+    /// the coating's transmittance towards wo (the tables' `external_at`).
+    #[inline]
+    fn diffuse_eval(&self, m: &Materials, si: &SurfaceInteraction, t_o: f32, wi: Vec3) -> Rgb {
+        let tables = self.tables(m);
+        let rho = self.diffuse_reflectance.eval(m, si);
+        let r = tables.internal_reflectance;
+        let denom = if self.nonlinear {
+            Rgb::ONE - rho * r
+        } else {
+            Rgb::splat(1.0 - r)
+        };
+        let t = t_o * tables.external_at(wi.z);
+        rho / denom * (FRAC_1_PI * t * wi.z / (self.eta * self.eta))
+    }
+
     /// Probability of sampling the specular lobe when T(θo) = `t_o`.
     #[inline]
     fn prob_specular(&self, m: &Materials, t_o: f32) -> f32 {
@@ -377,17 +393,7 @@ impl BsdfModel for RoughPlastic {
         let f = fresnel_dielectric(wo.dot(h), self.eta).0;
         let specular = self.specular_reflectance.eval(m, si)
             * (f * distr.d(h) * distr.g(wo, wi, h) / (4.0 * wo.z));
-
-        let tables = self.tables(m);
-        let rho = self.diffuse_reflectance.eval(m, si);
-        let r = tables.internal_reflectance;
-        let denom = if self.nonlinear {
-            Rgb::ONE - rho * r
-        } else {
-            Rgb::splat(1.0 - r)
-        };
-        let t = tables.external_at(wo.z) * tables.external_at(wi.z);
-        specular + rho / denom * (FRAC_1_PI * t * wi.z / (self.eta * self.eta))
+        specular + self.diffuse_eval(m, si, self.tables(m).external_at(wo.z), wi)
     }
 
     #[inline]
@@ -427,17 +433,8 @@ impl BsdfModel for RoughPlastic {
         let (dg, pdf_h) = distr.dg_and_pdf(wo, wi, h);
         let f = fresnel_dielectric(wo.dot(h), self.eta).0;
         let specular = self.specular_reflectance.eval(m, si) * (f * dg / (4.0 * wo.z));
-        let tables = self.tables(m);
-        let external_wo = tables.external_at(wo.z);
-        let rho = self.diffuse_reflectance.eval(m, si);
-        let r = tables.internal_reflectance;
-        let denom = if self.nonlinear {
-            Rgb::ONE - rho * r
-        } else {
-            Rgb::splat(1.0 - r)
-        };
-        let t = external_wo * tables.external_at(wi.z);
-        let value = specular + rho / denom * (FRAC_1_PI * t * wi.z / (self.eta * self.eta));
+        let external_wo = self.tables(m).external_at(wo.z);
+        let value = specular + self.diffuse_eval(m, si, external_wo, wi);
         let p_spec = self.prob_specular(m, external_wo);
         let pdf = p_spec * (pdf_h / (4.0 * wi.dot(h))) + (1.0 - p_spec) * cosine_hemisphere_pdf(wi);
         (value, pdf)
