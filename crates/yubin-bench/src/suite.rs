@@ -12,9 +12,9 @@
 //! rendered with the `yubin` binary and with Mitsuba 3.9.1 in each
 //! `--variants` variant (`scripts/mitsuba-ref render`), alternating, each
 //! `--reps` times, all at `--spp`, repetition k with seed k (both
-//! renderers). For each the table gives the median wall time (scene load
-//! + render, as each renderer reports them: process start, Python's
-//! import of Mitsuba and the image write are left out), the mean over
+//! renderers). For each the table gives the median wall time (scene
+//! load plus render, as each renderer reports them: process start,
+//! Python's import of Mitsuba and the image write are left out), the mean over
 //! the repetitions of the relMSE against a converged yubin render at
 //! `--ref-spp` with seed 0, which no measured run shares samples with
 //! (cached in `out/bench/suite`; both renderers converge to the same
