@@ -14,9 +14,10 @@
 //! `--reps` times, all at `--spp`, repetition k with seed k (both
 //! renderers). For each the table gives the median wall time (scene
 //! load plus render, as each renderer reports them: process start,
-//! Python's import of Mitsuba and the image write are left out), the mean over
-//! the repetitions of the relMSE against a converged yubin render at
-//! `--ref-spp` with seed 0, which no measured run shares samples with
+//! Python's import of Mitsuba and the image write are left out), the
+//! mean over the repetitions of the relMSE against a converged yubin
+//! render at `--ref-spp` with seed 0, which no measured run shares
+//! samples with
 //! (cached in `out/bench/suite`; both renderers converge to the same
 //! image, as the Z-tests show), the **efficiency ratio** (relMSE × time of
 //! yubin) / (relMSE × time of Mitsuba), the ratio of their times to equal

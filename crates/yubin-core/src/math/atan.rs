@@ -1,5 +1,6 @@
 //! An arctangent without a libm call, for the per-ray angle lookups
-//! (environment maps' latitude–longitude coordinates): one reduction to
+//! (environment maps' latitude–longitude coordinates, the sphere's and
+//! other round shapes' φ and θ): one reduction to
 //! |t| ≤ tan(π/8) and Moshier's Cephes `atanf` polynomial, whose error
 //! there is about 10⁻⁷ (S. L. Moshier, *Methods and Programs for
 //! Mathematical Functions*, 1989), with the octant folded back by

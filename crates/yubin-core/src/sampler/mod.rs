@@ -198,7 +198,13 @@ impl Sampler {
             sampler: *self,
             pixel_key,
             index,
-            sample_key: independent::sample_key(pixel_key, index),
+            // Only the samplers that draw independent values need it.
+            sample_key: match self {
+                Sampler::Independent(_) | Sampler::Sobol(_) => {
+                    independent::sample_key(pixel_key, index)
+                }
+                _ => 0,
+            },
             dim: 0,
             block: 0,
             block_index: 0,
@@ -213,8 +219,9 @@ pub struct SampleStream {
     pixel_key: u32,
     /// The sample's index (in its pattern, for the pattern samplers).
     index: u32,
-    /// Hash of (pixel key, index): the independent values' key, so that
-    /// each dimension costs one hash.
+    /// `independent` and `sobol` (past its dimensions): the hash of
+    /// (pixel key, index) that keys the independent values, so that each
+    /// dimension costs one hash. Zero for the pattern samplers.
     sample_key: u32,
     dim: u32,
     /// `orthogonal`: the block of dimensions (plus one; 0: none yet) whose
