@@ -5,9 +5,11 @@
 
 mod alias;
 mod distribution2d;
+mod spherical_rectangle;
 
 pub use alias::AliasTable;
 pub use distribution2d::{Distribution1D, Distribution2D};
+pub use spherical_rectangle::{spherical_rectangle_pdf, SphericalRectangle};
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
