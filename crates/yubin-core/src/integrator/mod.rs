@@ -234,7 +234,7 @@ pub(crate) fn environment_emission(
     d: Vec3,
     mut weigh: impl FnMut(Rgb, Option<f32>) -> Rgb,
 ) -> Rgb {
-    use crate::light::{EmitterModel, LightChoice};
+    use crate::light::LightChoice;
     let ctx = scene.emitter_context();
     let mut l = Rgb::ZERO;
     for &e in &scene.environment_emitters {
@@ -242,15 +242,16 @@ pub(crate) fn environment_emission(
             continue;
         }
         let emitter = &scene.emitters[e as usize];
-        let le = emitter.environment_radiance(&ctx, d);
-        let light_pdf = origin.bsdf_pdf.map(|_| {
+        let (le, light_pdf) = if origin.bsdf_pdf.is_some() {
+            let (le, pdf) = emitter.environment_radiance_and_pdf(&ctx, origin.p, d);
             let choice = LightChoice {
                 emitter: e,
                 prim: LightChoice::WHOLE,
             };
-            scene.light_pmf(choice, origin.p, origin.n)
-                * emitter.pdf_direction(&ctx, origin.p, origin.p + d, -d, d)
-        });
+            (le, Some(scene.light_pmf(choice, origin.p, origin.n) * pdf))
+        } else {
+            (emitter.environment_radiance(&ctx, d), None)
+        };
         l += weigh(le, light_pdf);
     }
     l

@@ -232,7 +232,7 @@ impl EnvMapLight {
     /// Radiance along world direction `wi` and the solid-angle density of
     /// sampling it.
     #[inline]
-    fn radiance_and_pdf(&self, ctx: &EmitterContext, wi: Vec3) -> (Rgb, f32) {
+    pub fn radiance_and_pdf(&self, ctx: &EmitterContext, wi: Vec3) -> (Rgb, f32) {
         let img = &ctx.images[self.image as usize];
         let dist = &ctx.distributions[self.distribution as usize];
         let local = (self.light_from_world * wi).normalize_or_zero();

@@ -291,6 +291,25 @@ impl Emitter {
         }
     }
 
+    /// [`Emitter::environment_radiance`] along `d` together with the
+    /// density of light sampling it from `ref_p` (`pdf_direction`): one
+    /// map lookup for both where the light is an environment map.
+    #[inline]
+    pub fn environment_radiance_and_pdf(
+        &self,
+        ctx: &EmitterContext,
+        ref_p: Vec3,
+        d: Vec3,
+    ) -> (Rgb, f32) {
+        match self {
+            Emitter::EnvMap(m) => m.radiance_and_pdf(ctx, d),
+            _ => (
+                self.environment_radiance(ctx, d),
+                self.pdf_direction(ctx, ref_p, ref_p + d, -d, d),
+            ),
+        }
+    }
+
     /// Emitted power (its largest RGB channel: a light bright in one
     /// channel only is not rare there), for light selection; lights at infinity
     /// count what crosses a disk of the scene's bounding radius `radius`
