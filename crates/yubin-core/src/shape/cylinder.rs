@@ -16,7 +16,8 @@
 //! The builder folds p0, p1 and radius into `to_world`.
 
 use super::{
-    azimuth, make_interaction, world_normal, PositionSample, PrimHit, ShapeModel, TriangleMesh,
+    azimuth, azimuth_sin_cos, make_interaction, world_normal, PositionSample, PrimHit, ShapeModel,
+    TriangleMesh,
 };
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
@@ -117,7 +118,7 @@ impl ShapeModel for Cylinder {
     ) -> SurfaceInteraction {
         let local = self.to_world.inv.transform_point3(ray.at(hit.t));
         let phi = azimuth(local.x, local.y);
-        let (sin_p, cos_p) = phi.sin_cos();
+        let (sin_p, cos_p) = azimuth_sin_cos(local.x, local.y);
         let on_surface = Vec3::new(cos_p, sin_p, local.z.clamp(0.0, 1.0));
         let p = self.to_world.point(on_surface);
         let n = world_normal(
@@ -166,8 +167,13 @@ impl ShapeModel for Cylinder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shape::tests::{check_shape_sampling, closest_hit};
+    use crate::shape::tests::{check_shape_sampling, check_uv_derivatives, closest_hit};
     use crate::shape::Shape;
+
+    #[test]
+    fn uv_derivatives_follow_the_surface() {
+        check_uv_derivatives(&cyl(), Vec3::new(2.0, 0.5, 0.2), Vec3::new(0.1, 0.05, 0.1));
+    }
 
     fn cyl() -> Shape {
         let m = Cylinder::object_to_world(Vec3::new(0.0, 0.0, -0.5), Vec3::new(0.2, 0.1, 0.7), 0.4);

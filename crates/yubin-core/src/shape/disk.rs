@@ -14,8 +14,8 @@
 //! object space and hence in world space.
 
 use super::{
-    azimuth, intersect_local_plane, make_interaction, unit_square_bounds, world_normal,
-    PositionSample, PrimHit, ShapeModel, TriangleMesh,
+    azimuth, azimuth_sin_cos, intersect_local_plane, make_interaction, unit_square_bounds,
+    world_normal, PositionSample, PrimHit, ShapeModel, TriangleMesh,
 };
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
@@ -74,7 +74,7 @@ impl ShapeModel for Disk {
         let local = hit.uv;
         let r = local.length();
         let phi = azimuth(local.x, local.y);
-        let (sin_p, cos_p) = phi.sin_cos();
+        let (sin_p, cos_p) = azimuth_sin_cos(local.x, local.y);
         let p = self.to_world.point(local.extend(0.0));
         let dpdu = self.to_world.vector(Vec3::new(cos_p, sin_p, 0.0));
         let dpdv = self
@@ -111,9 +111,19 @@ impl ShapeModel for Disk {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shape::tests::{check_shape_sampling, closest_hit};
+    use crate::shape::tests::{check_shape_sampling, check_uv_derivatives, closest_hit};
     use crate::shape::Shape;
     use glam::Affine3A;
+
+    #[test]
+    fn uv_derivatives_follow_the_surface() {
+        let m = Affine3A::from_rotation_y(0.5) * Affine3A::from_scale(Vec3::new(0.8, 0.5, 1.0));
+        let s = Shape::Disk(Disk {
+            to_world: Transform::new(m).unwrap(),
+            flip_normals: false,
+        });
+        check_uv_derivatives(&s, Vec3::new(0.3, 0.2, 2.0), Vec3::ZERO);
+    }
 
     #[test]
     fn chi2_disk_sampling() {

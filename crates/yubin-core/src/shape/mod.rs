@@ -324,6 +324,19 @@ pub(crate) fn azimuth(x: f32, y: f32) -> f32 {
     }
 }
 
+/// sin φ and cos φ of the azimuth of (x, y), as the point's own direction
+/// gives them (no trigonometric call); φ = 0 at the origin, as
+/// [`azimuth`] has it.
+#[inline]
+pub(crate) fn azimuth_sin_cos(x: f32, y: f32) -> (f32, f32) {
+    let rho = (x * x + y * y).sqrt();
+    if rho > 0.0 {
+        (y / rho, x / rho)
+    } else {
+        (0.0, 1.0)
+    }
+}
+
 /// Where `ray` meets the z = 0 plane of the object space of `to_world`:
 /// the ray parameter and the local (x, y), when inside the ray's interval.
 /// Shared by the planar shapes (`rectangle`, `disk`).
@@ -447,6 +460,41 @@ pub(crate) mod tests {
             compared += 1;
         }
         assert!(compared > 100, "only {compared} samples could be compared");
+    }
+
+    /// dp/du and dp/dv at hits seen from `origin` are the derivatives of
+    /// the surface along its uv: for two nearby hits, p' − p matches
+    /// dpdu Δu + dpdv Δv to first order (pairs across a uv seam skipped).
+    pub(crate) fn check_uv_derivatives(shape: &Shape, origin: Vec3, towards: Vec3) {
+        let mut rng = Pcg32::new(5, 9);
+        let axis = (towards - origin).normalize();
+        let frame = crate::math::Frame::from_normal(axis);
+        let mut compared = 0;
+        for _ in 0..400 {
+            let u = rng.next_2d() * 2.0 - Vec2::ONE;
+            let d = (axis + 0.3 * (u.x * frame.s + u.y * frame.t)).normalize();
+            let e = 1e-4 * (rng.next_2d() * 2.0 - Vec2::ONE);
+            let d2 = (d + e.x * frame.s + e.y * frame.t).normalize();
+            let (Some(a), Some(b)) = (
+                closest_hit(shape, &[], &Ray::new(origin, d)),
+                closest_hit(shape, &[], &Ray::new(origin, d2)),
+            ) else {
+                continue;
+            };
+            let duv = b.uv - a.uv;
+            let step = b.p - a.p;
+            if duv.abs().max_element() > 0.25 || a.n.dot(b.n) < 0.99 || step.length() < 1e-5 {
+                continue;
+            }
+            let predicted = a.dpdu * duv.x + a.dpdv * duv.y;
+            assert!(
+                (predicted - step).length() < 0.02 * step.length(),
+                "at uv {}: dp {step} vs dpdu Δu + dpdv Δv {predicted}",
+                a.uv
+            );
+            compared += 1;
+        }
+        assert!(compared > 100, "only {compared} hit pairs compared");
     }
 
     /// Brute-force closest hit over all primitives of one shape.

@@ -18,8 +18,8 @@
 //! ("Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems).
 
 use super::{
-    area_to_solid_angle, azimuth, make_interaction, PositionSample, PrimHit, ShapeDirectionSample,
-    ShapeModel, TriangleMesh,
+    area_to_solid_angle, azimuth, azimuth_sin_cos, make_interaction, PositionSample, PrimHit,
+    ShapeDirectionSample, ShapeModel, TriangleMesh,
 };
 use crate::interaction::SurfaceInteraction;
 use crate::math::{coordinate_system, Bounds3, Ray};
@@ -128,13 +128,38 @@ impl Sphere {
 
 impl Sphere {
     /// uv of the surface point in unit direction `outward` from the
-    /// centre, with its azimuth φ and polar angle θ in the sphere's frame.
-    fn uv_of(&self, outward: Vec3) -> (Vec2, f32, f32) {
-        let local = self.rotation.transpose() * outward;
-        let phi = azimuth(local.x, local.y);
-        let theta = crate::math::atan2(local.x.hypot(local.y), local.z);
-        (Vec2::new(phi / (2.0 * PI), theta / PI), phi, theta)
+    /// centre.
+    fn uv_of(&self, outward: Vec3) -> Vec2 {
+        self.angles_of(outward).uv
     }
+
+    /// uv of the surface point in unit direction `outward` from the
+    /// centre, with the sines and cosines of its azimuth φ and polar angle
+    /// θ in the sphere's frame, read off the direction itself (no
+    /// trigonometric calls: sin θ is its distance from the axis).
+    fn angles_of(&self, outward: Vec3) -> SphereAngles {
+        let local = self.rotation.transpose() * outward;
+        let rho = (local.x * local.x + local.y * local.y).sqrt();
+        let phi = azimuth(local.x, local.y);
+        let theta = crate::math::atan2(rho, local.z);
+        let (sin_phi, cos_phi) = azimuth_sin_cos(local.x, local.y);
+        SphereAngles {
+            uv: Vec2::new(phi / (2.0 * PI), theta / PI),
+            sin_theta: rho,
+            cos_theta: local.z,
+            sin_phi,
+            cos_phi,
+        }
+    }
+}
+
+/// A point of a sphere in its own angles (see [`Sphere::angles_of`]).
+struct SphereAngles {
+    uv: Vec2,
+    sin_theta: f32,
+    cos_theta: f32,
+    sin_phi: f32,
+    cos_phi: f32,
 }
 
 impl ShapeModel for Sphere {
@@ -187,10 +212,14 @@ impl ShapeModel for Sphere {
         let outward = (ray.at(hit.t) - self.center).normalize();
         // Re-project onto the surface to undo round-off in t.
         let p = self.center + outward * self.radius;
-        let (uv, phi, theta) = self.uv_of(outward);
+        let SphereAngles {
+            uv,
+            sin_theta: sin_t,
+            cos_theta: cos_t,
+            sin_phi: sin_p,
+            cos_phi: cos_p,
+        } = self.angles_of(outward);
         let r = self.radius;
-        let (sin_t, cos_t) = theta.sin_cos();
-        let (sin_p, cos_p) = phi.sin_cos();
         let dpdu = self.rotation * Vec3::new(-sin_p * sin_t, cos_p * sin_t, 0.0) * (2.0 * PI * r);
         let dpdv = self.rotation * Vec3::new(cos_p * cos_t, sin_p * cos_t, -sin_t) * (PI * r);
         make_interaction(
@@ -214,7 +243,7 @@ impl ShapeModel for Sphere {
             p: self.center + d * self.radius,
             n: self.outward_to_normal(d),
             pdf: 1.0 / (4.0 * PI * self.radius * self.radius),
-            uv: self.uv_of(d).0,
+            uv: self.uv_of(d),
         }
     }
 
@@ -254,7 +283,7 @@ impl ShapeModel for Sphere {
             p: self.center + outward * self.radius,
             n: self.outward_to_normal(outward),
             pdf: uniform_cone_pdf(cos_max),
-            uv: self.uv_of(outward).0,
+            uv: self.uv_of(outward),
         }
     }
 
@@ -272,8 +301,17 @@ impl ShapeModel for Sphere {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shape::tests::{check_shape_sampling, closest_hit};
+    use crate::shape::tests::{check_shape_sampling, check_uv_derivatives, closest_hit};
     use crate::shape::Shape;
+
+    #[test]
+    fn uv_derivatives_follow_the_surface() {
+        let mut s = Sphere::new(Vec3::new(0.2, 0.1, 0.0), 0.7, false);
+        s.rotation = Mat3::from_rotation_y(0.6) * Mat3::from_rotation_x(-0.4);
+        let s = Shape::Sphere(s);
+        check_uv_derivatives(&s, Vec3::new(0.5, 1.0, 3.0), Vec3::new(0.2, 0.1, 0.0));
+        check_uv_derivatives(&s, Vec3::new(-2.0, -1.0, 0.5), Vec3::new(0.2, 0.1, 0.0));
+    }
 
     #[test]
     fn chi2_sphere_cone_sampling() {
