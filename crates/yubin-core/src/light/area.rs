@@ -38,11 +38,15 @@
 //!
 //! The front side is the one the shading normal points to (so
 //! `flip_normals` turns a light around). Sampling is delegated to the
-//! shape: meshes pick triangles by area with an alias table, spheres
-//! sample the cone they subtend, other shapes sample uniformly by area.
+//! shape: spheres sample the cone they subtend; rectangles, and the
+//! triangles of a mesh that the light BVH picks one by one, are sampled
+//! uniformly in the solid angle they subtend (Ureña et al. 2013; Arvo
+//! 1995) from points about as near as they are large, by area from
+//! farther ones; a whole mesh picks its triangles by area with an alias
+//! table; other shapes sample uniformly by area.
 
 use super::{uv_interaction, EmitterContext, EmitterModel, EmitterSample};
-use crate::shape::{area_to_solid_angle, Shape, ShapeDirectionSample, ShapeModel};
+use crate::shape::{Shape, ShapeDirectionSample, ShapeModel};
 use crate::texture::Tex;
 use glam::{Vec2, Vec3};
 
@@ -56,8 +60,11 @@ pub struct AreaLight {
 }
 
 impl AreaLight {
-    /// Samples triangle `prim` of the light's mesh (uniformly by area) from
-    /// `ref_p`: the light BVH's choice of one triangle.
+    /// Samples triangle `prim` of the light's mesh from `ref_p` (by solid
+    /// angle when near, else by area: [`TriangleMesh::sample_triangle_direction`]):
+    /// the light BVH's choice of one triangle.
+    ///
+    /// [`TriangleMesh::sample_triangle_direction`]: crate::shape::TriangleMesh::sample_triangle_direction
     pub fn sample_triangle_direction(
         &self,
         ctx: &EmitterContext,
@@ -68,13 +75,7 @@ impl AreaLight {
         let Shape::Mesh(m) = ctx.shapes[self.shape as usize] else {
             return self.sample_direction(ctx, ref_p, u);
         };
-        let ps = ctx.meshes[m.mesh as usize].sample_triangle(prim as usize, u);
-        let s = ShapeDirectionSample {
-            p: ps.p,
-            n: ps.n,
-            pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
-            uv: ps.uv,
-        };
+        let s = ctx.meshes[m.mesh as usize].sample_triangle_direction(prim as usize, ref_p, u);
         self.emitted_towards(ctx, ref_p, s)
     }
 
@@ -91,8 +92,7 @@ impl AreaLight {
         let Shape::Mesh(m) = ctx.shapes[self.shape as usize] else {
             return self.pdf_direction(ctx, ref_p, p, n, Vec3::ZERO);
         };
-        let area = ctx.meshes[m.mesh as usize].triangle_area(prim as usize);
-        area_to_solid_angle(1.0 / area, ref_p, p, n)
+        ctx.meshes[m.mesh as usize].pdf_triangle_direction(prim as usize, ref_p, p, n)
     }
 
     /// The light sample for the point `s` found on the shape.

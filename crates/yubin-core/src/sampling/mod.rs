@@ -6,10 +6,21 @@
 mod alias;
 mod distribution2d;
 mod spherical_rectangle;
+mod spherical_triangle;
 
 pub use alias::AliasTable;
 pub use distribution2d::{Distribution1D, Distribution2D};
 pub use spherical_rectangle::{spherical_rectangle_pdf, SphericalRectangle};
+pub use spherical_triangle::SphericalTriangle;
+
+/// Below this solid angle (sr) a light is far enough that sampling it by
+/// area is as good as by solid angle, and the spherical sampling's
+/// rounding would be felt.
+pub const SPHERICAL_MIN_SOLID_ANGLE: f32 = 1e-3;
+
+/// Above it a point almost lies on a rectangle's plane, inside its
+/// outline, where the spherical parametrization loses precision.
+pub const SPHERICAL_MAX_SOLID_ANGLE: f32 = std::f32::consts::TAU - 0.06;
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};

@@ -13,17 +13,12 @@
 //! product is exact here (h·w·l): the sum of the corner angles minus 2π
 //! would lose digits for far lights.
 
+use super::{
+    SPHERICAL_MAX_SOLID_ANGLE as MAX_SOLID_ANGLE, SPHERICAL_MIN_SOLID_ANGLE as MIN_SOLID_ANGLE,
+};
 use crate::math::atan2;
 use glam::{Vec2, Vec3};
 use std::f32::consts::TAU;
-
-/// Below this solid angle (sr) a light is far enough that area sampling is
-/// as good, and the corner angles' rounding would be felt.
-pub const MIN_SOLID_ANGLE: f32 = 1e-3;
-
-/// Above it the point almost lies on the rectangle's plane, inside its
-/// outline, where the parametrization's divisions lose precision.
-pub const MAX_SOLID_ANGLE: f32 = TAU - 0.06;
 
 /// A rectangle as seen from a point, ready to be sampled.
 #[derive(Clone, Copy, Debug)]
@@ -56,7 +51,7 @@ pub struct SphericalRectangle {
 impl SphericalRectangle {
     /// The rectangle with corner `corner` and perpendicular edges `ex`,
     /// `ey` as seen from `o`; `None` when its solid angle lies outside
-    /// [`MIN_SOLID_ANGLE`], [`MAX_SOLID_ANGLE`] (then sample by area).
+    /// [`SPHERICAL_MIN_SOLID_ANGLE`](super::SPHERICAL_MIN_SOLID_ANGLE), [`SPHERICAL_MAX_SOLID_ANGLE`](super::SPHERICAL_MAX_SOLID_ANGLE) (then sample by area).
     #[inline]
     pub fn new(o: Vec3, corner: Vec3, ex: Vec3, ey: Vec3) -> Option<Self> {
         let f = LocalFrame::new(o, corner, ex, ey);

@@ -46,11 +46,14 @@
 //! triangle corner ([`TriangleMesh::tangents`], 48 bytes per triangle,
 //! nothing for other meshes), interpolated at the hit.
 
-use super::{PositionSample, PrimHit, ShapeModel, WatertightRay};
+use super::{
+    area_to_solid_angle, PositionSample, PrimHit, ShapeDirectionSample, ShapeModel, WatertightRay,
+    NEAR_AREA_PER_DISTANCE2,
+};
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Frame, Ray};
 use crate::params::{ParamError, Params};
-use crate::sampling::{square_to_uniform_triangle, AliasTable};
+use crate::sampling::{square_to_uniform_triangle, AliasTable, SphericalTriangle};
 use crate::texture::{NamedAttribute, NO_ATTRIBUTES};
 use glam::{Vec2, Vec3, Vec4};
 
@@ -394,6 +397,75 @@ impl TriangleMesh {
         }
     }
 
+    /// A point on triangle `tri` seen from `ref_p`, with solid-angle
+    /// density: uniform in solid angle (Arvo 1995) where the triangle is
+    /// near (see [`NEAR_AREA_PER_DISTANCE2`]), else uniform by area.
+    pub fn sample_triangle_direction(
+        &self,
+        tri: usize,
+        ref_p: Vec3,
+        u: Vec2,
+    ) -> ShapeDirectionSample {
+        let Some(st) = self.spherical_triangle(tri, ref_p) else {
+            let ps = self.sample_triangle(tri, u);
+            return ShapeDirectionSample {
+                p: ps.p,
+                n: ps.n,
+                pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
+                uv: ps.uv,
+            };
+        };
+        let d = st.sample(u);
+        let (p, _, ns, uv, ..) = self.surface_at(tri, self.barycentrics_along(tri, ref_p, d));
+        ShapeDirectionSample {
+            p,
+            n: ns,
+            pdf: 1.0 / st.solid_angle(),
+            uv,
+        }
+    }
+
+    /// Density of [`TriangleMesh::sample_triangle_direction`] for the point
+    /// `p` (normal `n`) of triangle `tri`.
+    pub fn pdf_triangle_direction(&self, tri: usize, ref_p: Vec3, p: Vec3, n: Vec3) -> f32 {
+        match self.spherical_triangle(tri, ref_p) {
+            Some(st) => 1.0 / st.solid_angle(),
+            None => area_to_solid_angle(1.0 / self.triangle_area(tri), ref_p, p, n),
+        }
+    }
+
+    /// Triangle `tri` as seen from `p`, where spherical sampling applies.
+    #[inline]
+    fn spherical_triangle(&self, tri: usize, p: Vec3) -> Option<SphericalTriangle> {
+        let v = self.vertices(tri);
+        let centroid = (v[0] + v[1] + v[2]) / 3.0;
+        // area ≥ k d², squared: |e1 × e2|² / 4 ≥ k² d⁴.
+        let twice_area2 = (v[1] - v[0]).cross(v[2] - v[0]).length_squared();
+        let k_d2 = NEAR_AREA_PER_DISTANCE2 * centroid.distance_squared(p);
+        (0.25 * twice_area2 >= k_d2 * k_d2)
+            .then(|| SphericalTriangle::new(p, v))
+            .flatten()
+    }
+
+    /// Barycentrics (b1, b2) where the ray from `o` along `d` meets the
+    /// plane of triangle `tri` (Möller and Trumbore 1997), kept inside it.
+    fn barycentrics_along(&self, tri: usize, o: Vec3, d: Vec3) -> Vec2 {
+        let [p0, p1, p2] = self.vertices(tri);
+        let (e1, e2) = (p1 - p0, p2 - p0);
+        let pvec = d.cross(e2);
+        let inv_det = 1.0 / e1.dot(pvec);
+        let tvec = o - p0;
+        let b1 = (tvec.dot(pvec) * inv_det).max(0.0);
+        let b2 = (d.dot(tvec.cross(e1)) * inv_det).max(0.0);
+        let excess = (b1 + b2 - 1.0).max(0.0) * 0.5;
+        let b = Vec2::new(b1 - excess, b2 - excess).max(Vec2::ZERO);
+        if b.is_finite() {
+            b
+        } else {
+            Vec2::splat(1.0 / 3.0)
+        }
+    }
+
     /// The cone of shading normals over triangle `tri`: its axis and the
     /// cosine of its half-angle (1 for a flat-shaded triangle). Normals
     /// interpolated between the vertices' stay inside the cone of those.
@@ -700,6 +772,51 @@ pub(crate) mod tests {
                 "triangle {tri}: pdf {}",
                 b.pdf
             );
+        }
+    }
+
+    /// One triangle's direction sampling against its density, from points
+    /// near it (by solid angle, in front, behind and nearly edge-on) and
+    /// farther (by area).
+    #[test]
+    fn chi2_triangle_direction_sampling() {
+        use crate::testing::chi2::{chi2_directions, Chi2Config};
+        let mesh = uneven_planar_mesh();
+        let cfg = Chi2Config {
+            integration_res: 24,
+            ..Chi2Config::default()
+        };
+        for tri in [2usize, 5] {
+            let [p0, p1, p2] = mesh.vertices(tri);
+            let centroid = (p0 + p1 + p2) / 3.0;
+            let n = (p1 - p0).cross(p2 - p0).normalize();
+            let edge = (p1 - p0).normalize();
+            for (offset, spherical) in [
+                (0.3 * n + 0.1 * edge, true),
+                (-0.4 * n - 0.2 * edge, true),
+                (0.05 * n + 0.6 * edge, true),
+                (3.0 * n + 1.0 * edge, false),
+            ] {
+                let ref_p = centroid + offset;
+                assert_eq!(mesh.spherical_triangle(tri, ref_p).is_some(), spherical);
+                chi2_directions(
+                    &cfg,
+                    |r: &mut crate::sampler::Pcg32| {
+                        let s = mesh.sample_triangle_direction(tri, ref_p, r.next_2d());
+                        (s.pdf > 0.0).then(|| ((s.p - ref_p).normalize(), s.pdf))
+                    },
+                    |d| {
+                        let ray = Ray::new(ref_p, d);
+                        mesh.intersect_triangle(tri, &ray)
+                            .map(|h| {
+                                let (p, n, ..) = mesh.surface_at(tri, h.uv);
+                                mesh.pdf_triangle_direction(tri, ref_p, p, n)
+                            })
+                            .unwrap_or(0.0)
+                    },
+                )
+                .unwrap();
+            }
         }
     }
 

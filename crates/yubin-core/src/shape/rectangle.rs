@@ -23,17 +23,12 @@
 use super::{
     area_to_solid_angle, intersect_local_plane, make_interaction, unit_square_bounds, world_normal,
     PositionSample, PrimHit, ShapeDirectionSample, ShapeModel, TriangleMesh,
+    NEAR_AREA_PER_DISTANCE2,
 };
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, Transform};
 use crate::params::{ParamError, Params};
 use crate::sampling::{spherical_rectangle_pdf, SphericalRectangle};
-
-/// Spherical sampling costs about 60 ns more per light sample than area
-/// sampling; it pays where the rectangle is near, its area above this
-/// fraction of its squared distance (in the suite's Cornell box, farther
-/// points gained 1–5 % in error for 5–30 % in time).
-const NEAR_AREA_PER_DISTANCE2: f32 = 0.5;
 use glam::{Vec2, Vec3};
 
 /// A parallelogram: the transformed unit square.
