@@ -18,7 +18,6 @@ use super::{
 };
 use crate::math::atan2;
 use glam::{Vec2, Vec3};
-use std::f32::consts::TAU;
 
 /// A rectangle as seen from a point, ready to be sampled.
 #[derive(Clone, Copy, Debug)]
@@ -41,9 +40,11 @@ pub struct SphericalRectangle {
     /// the edges y = y0 and y = y1.
     b0: f32,
     b1: f32,
-    /// 2π minus the corner angles at (x0, y0) and (x0, y1): where the
-    /// solid angle swept from the edge x = x0 starts.
-    k: f32,
+    /// Cosine and sine of the sum of the corner angles at (x0, y0) and
+    /// (x0, y1): the solid angle swept from the edge x = x0 starts at 2π
+    /// minus it.
+    cos_g: f32,
+    sin_g: f32,
     /// The solid angle.
     solid_angle: f32,
 }
@@ -63,10 +64,11 @@ impl SphericalRectangle {
         let (x0, y0, y1, h) = (f.x0, f.y0, f.y1, f.h);
         let h2 = h * h;
         // The corner angles of the spherical rectangle at (x0, y1) and
-        // (x0, y0): atan2 of the sine and cosine of the angle between the
-        // planes through o and the two edges meeting there.
-        let g2 = atan2(h * corners.len[3], x0 * y1);
-        let g3 = atan2(h * corners.len[0], -x0 * y0);
+        // (x0, y0), between the planes through o and the two edges meeting
+        // there, as unnormalized (cosine, sine) pairs; their sum's.
+        let (c2, s2) = (x0 * y1, h * corners.len[3]);
+        let (c3, s3) = (-x0 * y0, h * corners.len[0]);
+        let norm = 1.0 / ((c2 * c2 + s2 * s2) * (c3 * c3 + s3 * s3)).sqrt();
         Some(Self {
             corner,
             ex,
@@ -80,7 +82,8 @@ impl SphericalRectangle {
             h,
             b0: -y0 / (h2 + y0 * y0).sqrt(),
             b1: y1 / (h2 + y1 * y1).sqrt(),
-            k: TAU - g2 - g3,
+            cos_g: (c2 * c3 - s2 * s3) * norm,
+            sin_g: (s2 * c3 + c2 * s3) * norm,
             solid_angle,
         })
     }
@@ -98,8 +101,10 @@ impl SphericalRectangle {
         let h2 = self.h * self.h;
         // The line x = xu whose strip [x0, xu] subtends u.x of the angle
         // (Ureña et al.'s cu = 1/√(fu² + b0²), folded into xu).
-        let au = u.x * self.solid_angle + self.k;
-        let (sin_au, cos_au) = au.sin_cos();
+        // au = u.x Ω + 2π − g, by the angle-sum rules.
+        let (sin_us, cos_us) = (u.x * self.solid_angle).sin_cos();
+        let sin_au = sin_us * self.cos_g - cos_us * self.sin_g;
+        let cos_au = cos_us * self.cos_g + sin_us * self.sin_g;
         let fu = (cos_au * self.b0 - self.b1) / sin_au;
         let f2 = fu * fu + self.b0 * self.b0;
         let xu = self.h.copysign(fu) / (f2 - 1.0).max(1e-12).sqrt();
