@@ -11,8 +11,8 @@
 //! ```
 //!
 //! uv = ((x + 1)/2, (y + 1)/2). Area sampling is uniform in object space,
-//! which an affine map keeps uniform. Seen from a point nearer than about
-//! its size (its area over half the squared distance to its centre), a
+//! which an affine map keeps uniform. Seen from a point about as near as
+//! it is large (squared distance to its centre at most twice its area), a
 //! rectangle whose `to_world` keeps its corners square is sampled
 //! uniformly in the solid angle it subtends (Ureña et al. 2013, "An
 //! Area-Preserving Parametrization for Spherical Rectangles"), which
