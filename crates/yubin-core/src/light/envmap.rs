@@ -141,19 +141,19 @@ impl EnvMapLight {
     /// the samples sit).
     #[inline]
     fn lookup(img: &TexImage, uv: Vec2) -> Rgb {
-        let (w, h) = (img.width, img.height);
-        let px = uv.x * w as f32 - 0.5;
-        let fx0 = px.floor();
-        let fx = px - fx0;
-        let x0 = (fx0 as i64).rem_euclid(w as i64) as u32;
-        let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
-        let py = uv.y * (h - 1) as f32;
-        let y0 = (py.max(0.0) as u32).min(h.saturating_sub(2));
-        let fy = (py - y0 as f32).clamp(0.0, 1.0);
-        let y1 = (y0 + 1).min(h - 1);
+        let Bilinear { x, y, fx, fy } = Bilinear::at(img, uv);
         let t = |x, y| img.texel(x, y, true).truncate();
-        (1.0 - fy) * ((1.0 - fx) * t(x0, y0) + fx * t(x1, y0))
-            + fy * ((1.0 - fx) * t(x0, y1) + fx * t(x1, y1))
+        (1.0 - fy) * ((1.0 - fx) * t(x[0], y[0]) + fx * t(x[1], y[0]))
+            + fy * ((1.0 - fx) * t(x[0], y[1]) + fx * t(x[1], y[1]))
+    }
+
+    /// Asks the cache for the texels [`EnvMapLight::lookup`] will read at
+    /// `uv`, so that their loads overlap the work before it.
+    #[inline]
+    fn prefetch_lookup(img: &TexImage, uv: Vec2) {
+        let Bilinear { x, y, .. } = Bilinear::at(img, uv);
+        img.prefetch(x[0], y[0]);
+        img.prefetch(x[0], y[1]);
     }
 
     /// Radiance arriving along world direction `d` (unit length not
@@ -252,6 +252,33 @@ impl EnvMapLight {
     }
 }
 
+/// The four samples around a point of the map and its place between them.
+struct Bilinear {
+    x: [u32; 2],
+    y: [u32; 2],
+    fx: f32,
+    fy: f32,
+}
+
+impl Bilinear {
+    #[inline]
+    fn at(img: &TexImage, uv: Vec2) -> Self {
+        let (w, h) = (img.width, img.height);
+        let px = uv.x * w as f32 - 0.5;
+        let fx0 = px.floor();
+        let x0 = (fx0 as i64).rem_euclid(w as i64) as u32;
+        let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
+        let py = uv.y * (h - 1) as f32;
+        let y0 = (py.max(0.0) as u32).min(h.saturating_sub(2));
+        Self {
+            x: [x0, x1],
+            y: [y0, (y0 + 1).min(h - 1)],
+            fx: px - fx0,
+            fy: (py - y0 as f32).clamp(0.0, 1.0),
+        }
+    }
+}
+
 impl EmitterModel for EnvMapLight {
     fn sample_direction(&self, ctx: &EmitterContext, _: Vec3, u: Vec2) -> Option<EmitterSample> {
         let img = &ctx.images[self.image as usize];
@@ -264,6 +291,7 @@ impl EmitterModel for EnvMapLight {
         if pdf_uv == 0.0 || uv.y <= 0.0 {
             return None;
         }
+        Self::prefetch_lookup(img, uv);
         let wi = (self.world_from_light * latlong::direction_of(uv)).normalize();
         // Radiance and density are those of the direction as a traced ray
         // would find them, not of `uv`: round-off in the round trip can

@@ -144,6 +144,28 @@ impl TexImage {
         }
     }
 
+    /// Asks the cache for the texel at column `x`, row `y` (a hint only;
+    /// nothing off x86-64 or out of range).
+    #[inline]
+    pub fn prefetch(&self, x: u32, y: u32) {
+        let i = (y as usize * self.width as usize + x as usize) * self.channels as usize;
+        #[cfg(target_arch = "x86_64")]
+        match &self.data {
+            ImageData::F32(d) => {
+                if let Some(v) = d.get(i) {
+                    safe_arch::prefetch_t0(v);
+                }
+            }
+            ImageData::U8(d) => {
+                if let Some(v) = d.get(i) {
+                    safe_arch::prefetch_t0(v);
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = i;
+    }
+
     /// Bytes of pixel memory.
     pub fn memory_bytes(&self) -> usize {
         match &self.data {
