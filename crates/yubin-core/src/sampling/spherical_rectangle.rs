@@ -190,7 +190,7 @@ impl Corners {
 
     /// The solid angle, as the sum of the two triangles' by Van Oosterom
     /// and Strackee: tan(Ω/2) = |a·(b×c)| / (|a||b||c| + (a·b)|c| +
-    /// (a·c)|b| + (b·c)|a|), where each triple product is half the
+    /// (a·c)|b| + (b·c)|a|), where both triangles' triple product is the
     /// rectangle's h·w·l.
     #[inline]
     fn solid_angle(&self) -> f32 {
