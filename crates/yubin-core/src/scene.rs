@@ -174,11 +174,19 @@ struct GroupEmitter {
 
 /// A closest hit before its interaction is computed.
 #[derive(Clone, Copy, Debug)]
-struct HitRecord {
+pub struct HitRecord {
     shape: u32,
     prim: u32,
     hit: PrimHit,
     instance: Option<u32>,
+}
+
+impl HitRecord {
+    /// The hit's distance along the ray.
+    #[inline]
+    pub fn t(&self) -> f32 {
+        self.hit.t
+    }
 }
 
 /// An emitter that covers a shape.
@@ -291,11 +299,26 @@ impl Scene {
     /// Closest hit along `ray` within its interval.
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
         let h = self.closest_hit(ray)?;
+        Some(self.interaction_at(ray, h))
+    }
+
+    /// [`Scene::intersect`] in two steps, for the per-bounce loops: the
+    /// closest hit, a small record, then [`Scene::interaction_at`], whose
+    /// result the caller receives in place (through an `Option` the
+    /// 160-byte interaction would be copied once more).
+    #[inline]
+    pub fn closest(&self, ray: &Ray) -> Option<HitRecord> {
+        self.closest_hit(ray)
+    }
+
+    /// The interaction at `hit`, the closest hit along `ray`.
+    #[inline]
+    pub fn interaction_at(&self, ray: &Ray, hit: HitRecord) -> SurfaceInteraction {
         let closest = Ray {
-            t_max: h.hit.t,
+            t_max: hit.hit.t,
             ..*ray
         };
-        Some(self.interaction(ray, &closest, h))
+        self.interaction(ray, &closest, hit)
     }
 
     /// The closest hit along `ray`, with its interaction computed only when

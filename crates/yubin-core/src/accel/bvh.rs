@@ -884,7 +884,7 @@ impl Bvh {
                         all &= all - 1;
                         n += 1;
                     }
-                    for (i, j) in SORT8 {
+                    for &(i, j) in &SORT8 {
                         (keys[i], keys[j]) = order(keys[i], keys[j]);
                     }
                     for &k in keys[1..n.min(WIDTH)].iter().rev() {

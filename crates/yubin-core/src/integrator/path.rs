@@ -79,12 +79,13 @@ impl Integrator for PathIntegrator {
         // Number of segments traced so far minus one (0 at the first hit).
         let mut depth: u32 = 0;
         loop {
-            let Some(si) = scene.intersect(&ray) else {
+            let Some(hit) = scene.closest(&ray) else {
                 if !(depth == 0 && self.hide_emitters) {
                     l += beta * environment_radiance(scene, &origin, ray.d.normalize());
                 }
                 break;
             };
+            let si = scene.interaction_at(&ray, hit);
             if !(depth == 0 && self.hide_emitters) {
                 l += beta * surface_emission(scene, &si, &origin);
             }

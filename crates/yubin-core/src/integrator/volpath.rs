@@ -49,7 +49,7 @@ use crate::params::{ParamError, Params};
 use crate::phase::PhaseFunction;
 use crate::sampler::SampleStream;
 use crate::sampling::power_heuristic;
-use crate::scene::ShadowHit;
+use crate::scene::{HitRecord, ShadowHit};
 use crate::{Rgb, Scene};
 use glam::Vec3;
 
@@ -392,26 +392,26 @@ impl VolPathIntegrator {
         medium: Option<u32>,
         path: &mut PathWeight,
         sampler: &mut SampleStream,
-    ) -> (Option<SurfaceInteraction>, Option<Flight>) {
+    ) -> (Option<HitRecord>, Option<Flight>) {
         match medium.map(|m| &scene.media[m as usize]) {
-            None => (scene.intersect(ray), None),
+            None => (scene.closest(ray), None),
             // The distance is drawn first, and surfaces are looked for
             // only that far: a scattering event computes no hit.
             Some(Medium::Homogeneous(h)) => {
                 let t = h.free_distance(path, sampler.next_1d());
-                let si = scene.intersect(&Ray {
+                let hit = scene.closest(&Ray {
                     t_max: ray.t_max.min(t),
                     ..*ray
                 });
-                let end = si.as_ref().map_or(ray.t_max, |s| s.t);
-                (si, Some(h.end_flight(ray.o, ray.d, t, end, path)))
+                let end = hit.map_or(ray.t_max, |h| h.t());
+                (hit, Some(h.end_flight(ray.o, ray.d, t, end, path)))
             }
             Some(m) => {
-                let si = scene.intersect(ray);
-                let end = si.as_ref().map_or(ray.t_max, |s| s.t);
+                let hit = scene.closest(ray);
+                let end = hit.map_or(ray.t_max, |h| h.t());
                 let mut next = || sampler.next_1d();
                 let flight = m.sample_flight(ray.o, ray.d, end, path, &mut next);
-                (si, Some(flight))
+                (hit, Some(flight))
             }
         }
     }
@@ -470,7 +470,7 @@ impl Integrator for VolPathIntegrator {
         // Real scattering events so far.
         let mut depth: u32 = 0;
         while depth < max_depth {
-            let (si, flight) = Self::trace(scene, &ray, medium, &mut path, sampler);
+            let (hit, flight) = Self::trace(scene, &ray, medium, &mut path, sampler);
             if let (Some(flight), Some(m)) = (flight, medium) {
                 let m = &scene.media[m as usize];
                 l += flight.emitted;
@@ -515,12 +515,13 @@ impl Integrator for VolPathIntegrator {
                 origin
             };
             let weigh = |le, light_pdf| self.weigh_emission(&path, &mis_origin, le, light_pdf);
-            let Some(si) = si else {
+            let Some(hit) = hit else {
                 if !hidden {
                     l += environment_emission(scene, &mis_origin, ray.d, weigh);
                 }
                 break;
             };
+            let si = scene.interaction_at(&ray, hit);
             if !hidden {
                 l += surface_emission_with(scene, &si, &mis_origin, weigh);
             }
