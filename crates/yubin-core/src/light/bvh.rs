@@ -211,6 +211,9 @@ pub struct LightBvh {
     infinite: Vec<u32>,
     /// Per emitter: whether it is in `infinite`.
     is_infinite: Vec<bool>,
+    /// The scene's only light, when it has one (chosen with probability
+    /// 1: the general rules give exactly that, after a chain of divisions).
+    lone: Option<LightChoice>,
 }
 
 /// Lights deeper than this would overflow a trail; the build stops
@@ -256,6 +259,14 @@ impl LightBvh {
         if !leaves.is_empty() {
             bvh.build(&mut leaves, 0, 0);
         }
+        bvh.lone = match (bvh.lights.as_slice(), bvh.infinite.as_slice()) {
+            ([light], []) => Some(*light),
+            ([], [e]) => Some(LightChoice {
+                emitter: *e,
+                prim: LightChoice::WHOLE,
+            }),
+            _ => None,
+        };
         bvh
     }
 
@@ -334,6 +345,9 @@ impl LightBvh {
     /// Chooses a light for point `p` with normal `n`: uniformly among the
     /// tree's lights with probability α, else by traversal.
     pub fn sample(&self, u: f32, p: Vec3, n: Vec3) -> Option<(LightChoice, f32)> {
+        if let Some(light) = self.lone {
+            return Some((light, 1.0));
+        }
         let p_tree = self.p_tree();
         if u < p_tree && !self.nodes.is_empty() {
             let u = u / p_tree;
@@ -412,6 +426,9 @@ impl LightBvh {
 
     /// Probability that [`LightBvh::sample`] at (`p`, `n`) chooses `light`.
     pub fn pmf(&self, light: LightChoice, p: Vec3, n: Vec3) -> f32 {
+        if self.lone == Some(light) {
+            return 1.0;
+        }
         let e = light.emitter as usize;
         if self.is_infinite.get(e).copied().unwrap_or(false) {
             return (1.0 - self.p_tree()) / self.infinite.len() as f32;
