@@ -407,13 +407,7 @@ impl TriangleMesh {
         u: Vec2,
     ) -> ShapeDirectionSample {
         let Some(st) = self.spherical_triangle(tri, ref_p) else {
-            let ps = self.sample_triangle(tri, u);
-            return ShapeDirectionSample {
-                p: ps.p,
-                n: ps.n,
-                pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
-                uv: ps.uv,
-            };
+            return ShapeDirectionSample::from_area(self.sample_triangle(tri, u), ref_p);
         };
         let d = st.sample(u);
         let (p, _, ns, uv, ..) = self.surface_at(tri, self.barycentrics_along(tri, ref_p, d));

@@ -122,6 +122,20 @@ pub struct ShapeDirectionSample {
     pub uv: Vec2,
 }
 
+impl ShapeDirectionSample {
+    /// The area sample `ps` as seen from `ref_p`: its density converted
+    /// to solid angle there.
+    #[inline]
+    pub fn from_area(ps: PositionSample, ref_p: Vec3) -> Self {
+        Self {
+            p: ps.p,
+            n: ps.n,
+            pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
+            uv: ps.uv,
+        }
+    }
+}
+
 /// The contract every shape variant implements.
 pub trait ShapeModel {
     /// Number of primitives the BVH sees.
@@ -165,13 +179,7 @@ pub trait ShapeModel {
         ref_p: Vec3,
         u: Vec2,
     ) -> ShapeDirectionSample {
-        let ps = self.sample_position(meshes, u);
-        ShapeDirectionSample {
-            p: ps.p,
-            n: ps.n,
-            pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
-            uv: ps.uv,
-        }
+        ShapeDirectionSample::from_area(self.sample_position(meshes, u), ref_p)
     }
 
     /// Density of [`ShapeModel::sample_direction`] for the point `p` with

@@ -130,13 +130,7 @@ impl ShapeModel for Rectangle {
         u: Vec2,
     ) -> ShapeDirectionSample {
         let Some(sr) = self.seen_from(ref_p) else {
-            let ps = self.sample_position(meshes, u);
-            return ShapeDirectionSample {
-                p: ps.p,
-                n: ps.n,
-                pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
-                uv: ps.uv,
-            };
+            return ShapeDirectionSample::from_area(self.sample_position(meshes, u), ref_p);
         };
         let (p, uv) = sr.sample(u);
         ShapeDirectionSample {

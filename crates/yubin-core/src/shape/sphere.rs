@@ -257,13 +257,7 @@ impl ShapeModel for Sphere {
         let dist2 = to_center.length_squared();
         let r2 = self.radius * self.radius;
         if dist2 <= r2 * 1.0001 {
-            let ps = self.sample_position(meshes, u);
-            return ShapeDirectionSample {
-                p: ps.p,
-                n: ps.n,
-                pdf: area_to_solid_angle(ps.pdf, ref_p, ps.p, ps.n),
-                uv: ps.uv,
-            };
+            return ShapeDirectionSample::from_area(self.sample_position(meshes, u), ref_p);
         }
         let dist = dist2.sqrt();
         let sin_max2 = r2 / dist2;
