@@ -66,13 +66,14 @@ impl Integrator for DirectIntegrator {
     }
 
     fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
-        let Some(si) = scene.intersect(ray) else {
+        let Some(hit) = scene.closest(ray) else {
             return if self.hide_emitters {
                 Rgb::ZERO
             } else {
                 environment_radiance(scene, &RayOrigin::camera(ray.o), ray.d.normalize())
             };
         };
+        let si = scene.interaction_at(ray, hit);
         let mut l = if self.hide_emitters {
             Rgb::ZERO
         } else {
@@ -100,8 +101,8 @@ impl Integrator for DirectIntegrator {
             let pdf = (!delta && self.emitter_samples > 0).then_some(bs.pdf * nb / ne.max(1e-9));
             let next = si.spawn_ray(si.to_world(bs.wi));
             let origin = RayOrigin::surface(&si, pdf);
-            let le = match scene.intersect(&next) {
-                Some(hit) => surface_emission(scene, &hit, &origin),
+            let le = match scene.closest(&next) {
+                Some(hit) => surface_emission(scene, &scene.interaction_at(&next, hit), &origin),
                 None => environment_radiance(scene, &origin, next.d),
             };
             l += bs.weight * le / nb;

@@ -253,9 +253,10 @@ impl ParticleTracer {
             if self.max_depth >= 0 && depth + 1 > self.max_depth as u32 {
                 break;
             }
-            let Some(si) = scene.intersect(&ray) else {
+            let Some(hit) = scene.closest(&ray) else {
                 break;
             };
+            let si = scene.interaction_at(&ray, hit);
             let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
             if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) {
