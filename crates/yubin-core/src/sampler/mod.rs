@@ -242,8 +242,21 @@ impl SampleStream {
     }
 
     /// The next value in [0, 1).
-    #[inline]
+    #[inline(always)]
     pub fn next_1d(&mut self) -> f32 {
+        // The independent sampler (Mitsuba's default) inline at every
+        // call; the pattern samplers out of line.
+        if let Sampler::Independent(_) = self.sampler {
+            let d = self.dim;
+            self.dim += 1;
+            return independent::sample(self.sample_key, d);
+        }
+        self.next_1d_patterned()
+    }
+
+    /// [`SampleStream::next_1d`] for every sampler.
+    #[inline(never)]
+    fn next_1d_patterned(&mut self) -> f32 {
         let d = self.dim;
         self.dim += 1;
         let i = self.index;
