@@ -298,17 +298,8 @@ impl Scene {
 
     /// Closest hit along `ray` within its interval.
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
-        let h = self.closest_hit(ray)?;
+        let h = self.closest(ray)?;
         Some(self.interaction_at(ray, h))
-    }
-
-    /// [`Scene::intersect`] in two steps, for the per-bounce loops: the
-    /// closest hit, a small record, then [`Scene::interaction_at`], whose
-    /// result the caller receives in place (through an `Option` the
-    /// 160-byte interaction would be copied once more).
-    #[inline]
-    pub fn closest(&self, ray: &Ray) -> Option<HitRecord> {
-        self.closest_hit(ray)
     }
 
     /// The interaction at `hit`, the closest hit along `ray`.
@@ -330,15 +321,11 @@ impl Scene {
         ray: &Ray,
         wanted: impl FnOnce(u32) -> bool,
     ) -> Option<Result<SurfaceInteraction, u32>> {
-        let h = self.closest_hit(ray)?;
+        let h = self.closest(ray)?;
         if !wanted(h.shape) {
             return Some(Err(h.shape));
         }
-        let closest = Ray {
-            t_max: h.hit.t,
-            ..*ray
-        };
-        Some(Ok(self.interaction(ray, &closest, h)))
+        Some(Ok(self.interaction_at(ray, h)))
     }
 
     /// The first surface along a shadow ray, with no more computed than the
@@ -346,7 +333,7 @@ impl Scene {
     /// through, the point and normal for a plain `null` one, the whole
     /// interaction otherwise.
     pub fn shadow_hit(&self, ray: &Ray) -> Option<ShadowHit> {
-        let h = self.closest_hit(ray)?;
+        let h = self.closest(ray)?;
         let bsdf = self.bsdf_of(h.shape);
         if !bsdf.lets_light_through(&self.materials) {
             return Some(ShadowHit::Opaque);
@@ -392,13 +379,17 @@ impl Scene {
     /// the surface interaction (for ray-throughput benchmarks and tests).
     #[inline]
     pub fn intersect_distance(&self, ray: &Ray) -> Option<(f32, u32, u32)> {
-        self.closest_hit(ray).map(|h| (h.hit.t, h.shape, h.prim))
+        self.closest(ray).map(|h| (h.hit.t, h.shape, h.prim))
     }
 
-    /// The closest hit; its `hit.t` is the distance. The ray is passed on
-    /// as it is, not copied (see [`Bvh::closest_leaves`]).
+    /// The closest hit, a small record ([`HitRecord::t`] is its distance):
+    /// [`Scene::intersect`] in two steps for the per-bounce loops, which
+    /// then build the interaction with [`Scene::interaction_at`] in place
+    /// (through an `Option` the 160-byte interaction would be copied once
+    /// more). The ray is passed on as it is, not copied (see
+    /// [`Bvh::closest_leaves`]).
     #[inline]
-    fn closest_hit(&self, ray: &Ray) -> Option<HitRecord> {
+    pub fn closest(&self, ray: &Ray) -> Option<HitRecord> {
         self.closest_in_group(&self.groups[0], ray, None)
     }
 

@@ -18,8 +18,8 @@ pub use spherical_triangle::SphericalTriangle;
 /// rounding would be felt.
 pub const SPHERICAL_MIN_SOLID_ANGLE: f32 = 1e-3;
 
-/// Above it a point almost lies on a rectangle's plane, inside its
-/// outline, where the spherical parametrization loses precision.
+/// Above it a point almost lies on a light's plane, inside its outline,
+/// where the spherical parametrizations lose precision.
 pub const SPHERICAL_MAX_SOLID_ANGLE: f32 = std::f32::consts::TAU - 0.06;
 
 use glam::{Vec2, Vec3};
