@@ -11,7 +11,7 @@ mod hdrfilm;
 
 use crate::filter::{Filter, FilterTable};
 use crate::params::{plugin_of, ParamError, Params};
-use glam::Vec2;
+use glam::{Vec2, Vec4};
 
 /// Builds a film plugin from its parameters.
 pub type FilmFromParams = fn(&mut dyn Params) -> Result<Film, ParamError>;
@@ -84,6 +84,17 @@ impl Tile {
     }
 }
 
+/// The widest footprint (pixels) that [`TileBuffer::splat`] takes on its
+/// fast path: every filter up to a radius of 3.5 pixels.
+const FIXED_COLUMNS: usize = 8;
+
+/// A sample's footprint in a [`TileBuffer`]: its first pixel and its size.
+struct Footprint {
+    origin: [usize; 2],
+    columns: usize,
+    rows: usize,
+}
+
 /// Filter-weighted accumulation for one tile, with a margin wide enough
 /// for every pixel a sample in the tile can reach.
 #[derive(Clone, Debug)]
@@ -130,6 +141,86 @@ impl TileBuffer {
             }
             return;
         }
+        match *values {
+            [r, g, b] => self.splat_fixed(filter, pos, [r, g, b]),
+            [r, g, b, a] => self.splat_fixed(filter, pos, [r, g, b, a]),
+            _ => self.splat_any(filter, pos, values),
+        }
+    }
+
+    /// [`TileBuffer::splat`] for samples of `N` values whose footprint is
+    /// at most [`FIXED_COLUMNS`] pixels wide, the common case: the weights
+    /// of a row are one product each, and no pixel is bounds-checked (the
+    /// footprint is checked once; the tile's margin holds it whenever the
+    /// sample lies in the tile).
+    #[inline]
+    fn splat_fixed<const N: usize>(&mut self, filter: &FilterTable, pos: Vec2, values: [f32; N]) {
+        let Some(footprint) = self.footprint(filter, pos) else {
+            return self.splat_any(filter, pos, &values);
+        };
+        let [x0, y0] = footprint.origin;
+        let mut column = [0.0f32; FIXED_COLUMNS];
+        for (k, w) in column[..footprint.columns].iter_mut().enumerate() {
+            *w = filter.eval_1d((self.origin[0] + (x0 + k) as i64) as f32 + 0.5 - pos.x);
+        }
+        let column = &column[..footprint.columns];
+        let stride = N + 1;
+        for y in y0..y0 + footprint.rows {
+            let wy = filter.eval_1d((self.origin[1] + y as i64) as f32 + 0.5 - pos.y);
+            if wy == 0.0 {
+                continue;
+            }
+            let start = (y * self.size[0] + x0) * stride;
+            let row = &mut self.data[start..start + column.len() * stride];
+            if let Ok(&[r, g, b]) = <&[f32; 3]>::try_from(&values[..]) {
+                // An RGB cell and its weight are one 4-wide step: w · (r, g, b, 1).
+                let rgb1 = Vec4::new(r, g, b, 1.0);
+                for (cell, &wx) in row.chunks_exact_mut(4).zip(column) {
+                    let sum = Vec4::from_slice(cell) + rgb1 * (wy * wx);
+                    sum.write_to_slice(cell);
+                }
+                continue;
+            }
+            for (cell, &wx) in row.chunks_exact_mut(stride).zip(column) {
+                let w = wy * wx;
+                for (acc, v) in cell.iter_mut().zip(values) {
+                    *acc += w * v;
+                }
+                cell[N] += w;
+            }
+        }
+    }
+
+    /// The pixels a filter of `filter`'s radius reaches from `pos`, in
+    /// buffer coordinates, when they lie in the buffer and are at most
+    /// [`FIXED_COLUMNS`] wide.
+    #[inline]
+    fn footprint(&self, filter: &FilterTable, pos: Vec2) -> Option<Footprint> {
+        let r = filter.radius();
+        let lo = Vec2::new(
+            (pos.x - r - 0.5).ceil() - self.origin[0] as f32,
+            (pos.y - r - 0.5).ceil() - self.origin[1] as f32,
+        );
+        let hi = Vec2::new(
+            (pos.x + r - 0.5).floor() - self.origin[0] as f32,
+            (pos.y + r - 0.5).floor() - self.origin[1] as f32,
+        );
+        let inside = lo.cmpge(Vec2::ZERO).all()
+            && hi.x < self.size[0] as f32
+            && hi.y < self.size[1] as f32
+            && hi.x - lo.x < FIXED_COLUMNS as f32
+            && hi.cmpge(lo).all();
+        inside.then(|| Footprint {
+            origin: [lo.x as usize, lo.y as usize],
+            columns: (hi.x - lo.x) as usize + 1,
+            rows: (hi.y - lo.y) as usize + 1,
+        })
+    }
+
+    /// [`TileBuffer::splat`] for any sample: any channel count, any
+    /// footprint, pixels outside the buffer skipped.
+    fn splat_any(&mut self, filter: &FilterTable, pos: Vec2, values: &[f32]) {
+        let stride = self.channels + 1;
         let r = filter.radius();
         let (lo_x, hi_x) = (
             (pos.x - r - 0.5).ceil() as i64,
@@ -405,6 +496,49 @@ mod tests {
                 }
             }
             assert!(total_w > 0.0);
+        }
+    }
+
+    /// The fast path (3 or 4 values, narrow footprint inside the buffer)
+    /// adds exactly what the general one adds, pixel by pixel, and leaves
+    /// samples whose footprint leaves the buffer to the general one.
+    #[test]
+    fn fixed_splats_equal_general_splats() {
+        let tile = Tile {
+            x0: 8,
+            y0: 4,
+            x1: 16,
+            y1: 12,
+        };
+        let mut rng = crate::sampler::Pcg32::new(7, 0);
+        for filter in [
+            Filter::Tent { radius: 1.0 },
+            Filter::Gaussian { stddev: 0.5 },
+            Filter::Mitchell {
+                b: 1.0 / 3.0,
+                c: 1.0 / 3.0,
+            },
+            Filter::Lanczos { lobes: 3 },
+            // 8 or 9 columns: either side of the fast path's limit.
+            Filter::Tent { radius: 4.2 },
+            Filter::Gaussian { stddev: 2.0 },
+        ] {
+            let table = FilterTable::new(&filter);
+            for channels in [3, 4] {
+                let mut fast = TileBuffer::new(tile, &table, channels);
+                let mut general = fast.clone();
+                for _ in 0..200 {
+                    // Within the tile and up to two pixels beyond it.
+                    let pos = Vec2::new(6.0 + 12.0 * rng.next_f32(), 2.0 + 12.0 * rng.next_f32());
+                    let values: Vec<f32> = (0..channels)
+                        .map(|c| rng.next_f32() - 0.2 * c as f32)
+                        .collect();
+                    fast.splat(&table, pos, &values);
+                    general.splat_any(&table, pos, &values);
+                }
+                assert!(fast.data.iter().any(|&v| v != 0.0));
+                assert_eq!(fast.data, general.data, "{filter:?}, {channels} channels");
+            }
         }
     }
 }
