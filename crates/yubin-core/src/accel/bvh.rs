@@ -86,7 +86,7 @@ fn leaf_span(code: u32) -> (usize, usize) {
 /// five. Plain data (`Pod`), so that it can live in a [`HugeArray`].
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 #[repr(C, align(64))]
-struct Node {
+pub(crate) struct Node {
     /// First, so that the child codes share a cache line with the first
     /// planes: the child to visit is read right after the box test, and
     /// on a line of its own that read would wait for memory a second time.
@@ -509,7 +509,7 @@ fn append_subtree(nodes: &mut Vec<Node>, code: u32, mut sub: Vec<Node>) -> u32 {
 /// the far distance is scaled by `1 + 8u`, so the test stays conservative
 /// (in the spirit of pbrt-v4 §6.8.2): a box is never missed because of
 /// round-off, with or without hardware FMA.
-struct RayLanes {
+pub(crate) struct RayLanes {
     inv_d: [f32x8; 3],
     near_offset: [f32x8; 3],
     /// The far planes' reciprocal direction and offset, both scaled by
@@ -581,6 +581,57 @@ impl RayLanes {
             .fast_min(far[2].fast_min(f32x8::splat(t_max)));
         (t_near, t_near.cmp_le(t_far).move_mask() as u32)
     }
+}
+
+/// The portable node test ([`RayLanes::hit_children`]) as a function, for
+/// [`Bvh::closest_leaves_by`] and [`Bvh::any_leaves_by`].
+#[inline(always)]
+pub(crate) fn hit_children(lanes: &RayLanes, node: &Node, t_min: f32, t_max: f32) -> (f32x8, u32) {
+    lanes.hit_children(node, t_min, t_max)
+}
+
+/// A node's box test ([`RayLanes::hit_children`]) in one 8-wide AVX
+/// register per plane instead of two SSE halves, for traversal compiled
+/// for AVX2 and chosen at run time (see `scene.rs`). Multiply then add,
+/// and the same min/max operand order: the same distances and masks bit
+/// for bit, so the traversal order, and every image, is the same on
+/// either path.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) fn hit_children_avx2(
+    lanes: &RayLanes,
+    node: &Node,
+    t_min: f32,
+    t_max: f32,
+) -> (f32x8, u32) {
+    use std::arch::x86_64::{
+        __m256, _mm256_add_ps, _mm256_cmp_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
+        _mm256_mul_ps, _mm256_set1_ps, _CMP_LE_OQ,
+    };
+    let wide = |v: f32x8| -> __m256 { bytemuck::cast(v) };
+    let plane = |a: usize, near: bool| {
+        let i = if near { lanes.near[a] } else { lanes.far[a] };
+        wide(node.planes[i.min(5)])
+    };
+    let slab = |a: usize, near: bool| {
+        let (inv, offset) = if near {
+            (lanes.inv_d[a], lanes.near_offset[a])
+        } else {
+            (lanes.far_inv_d[a], lanes.far_offset[a])
+        };
+        _mm256_add_ps(_mm256_mul_ps(plane(a, near), wide(inv)), wide(offset))
+    };
+    let t_near = _mm256_max_ps(
+        _mm256_max_ps(slab(0, true), slab(1, true)),
+        _mm256_max_ps(slab(2, true), _mm256_set1_ps(t_min)),
+    );
+    let t_far = _mm256_min_ps(
+        _mm256_min_ps(slab(0, false), slab(1, false)),
+        _mm256_min_ps(slab(2, false), _mm256_set1_ps(t_max)),
+    );
+    let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t_near, t_far)) as u32;
+    (bytemuck::cast(t_near), mask)
 }
 
 impl Bvh {
@@ -796,6 +847,22 @@ impl Bvh {
         ray: &Ray,
         vectors: &RayVectors,
         prefetch: &impl Fn(usize),
+        leaf: impl FnMut(usize, usize, f32) -> Option<f32>,
+    ) -> Option<f32> {
+        self.closest_leaves_by(ray, vectors, prefetch, RayLanes::hit_children, leaf)
+    }
+
+    /// [`Bvh::closest_leaves`] with the node test `test` (the portable
+    /// [`RayLanes::hit_children`] or [`hit_children_avx2`]). Always
+    /// inlined, so that a caller compiled for more instruction sets
+    /// compiles the whole loop for them.
+    #[inline(always)]
+    pub(crate) fn closest_leaves_by(
+        &self,
+        ray: &Ray,
+        vectors: &RayVectors,
+        prefetch: &impl Fn(usize),
+        test: impl Fn(&RayLanes, &Node, f32, f32) -> (f32x8, u32),
         mut leaf: impl FnMut(usize, usize, f32) -> Option<f32>,
     ) -> Option<f32> {
         if self.root == EMPTY {
@@ -810,7 +877,7 @@ impl Bvh {
         'trace: loop {
             while code & LEAF_BIT == 0 {
                 let node = &self.nodes[code as usize];
-                let (t_near, mut mask) = lanes.hit_children(node, ray.t_min, t_max);
+                let (t_near, mut mask) = test(&lanes, node, ray.t_min, t_max);
                 if mask == 0 {
                     match pop_within(&mut stack, t_max) {
                         Some(next) => {
@@ -927,6 +994,20 @@ impl Bvh {
         ray: &Ray,
         vectors: &RayVectors,
         prefetch: &impl Fn(usize),
+        leaf: impl FnMut(usize, usize) -> bool,
+    ) -> bool {
+        self.any_leaves_by(ray, vectors, prefetch, RayLanes::hit_children, leaf)
+    }
+
+    /// [`Bvh::any_leaves`] with the node test `test`, always inlined (see
+    /// [`Bvh::closest_leaves_by`]).
+    #[inline(always)]
+    pub(crate) fn any_leaves_by(
+        &self,
+        ray: &Ray,
+        vectors: &RayVectors,
+        prefetch: &impl Fn(usize),
+        test: impl Fn(&RayLanes, &Node, f32, f32) -> (f32x8, u32),
         mut leaf: impl FnMut(usize, usize) -> bool,
     ) -> bool {
         if self.root == EMPTY {
@@ -938,7 +1019,7 @@ impl Bvh {
         loop {
             while code & LEAF_BIT == 0 {
                 let node = &self.nodes[code as usize];
-                let (_, mut mask) = lanes.hit_children(node, ray.t_min, ray.t_max);
+                let (_, mut mask) = test(&lanes, node, ray.t_min, ray.t_max);
                 if mask == 0 {
                     match stack.pop() {
                         Some(next) => {
@@ -1384,6 +1465,78 @@ mod tests {
     use crate::sampler::Pcg32;
     use crate::sampling::square_to_uniform_sphere;
     use glam::Vec3;
+
+    /// The AVX2 node test on this CPU, or `None` where it has no AVX2:
+    /// (entry distances' bits, mask) per (ray, node) pair.
+    #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+    fn avx2_box_tests(cases: &[(RayLanes, Node, f32, f32)]) -> Option<Vec<([u32; 8], u32)>> {
+        #[multiversion::target::target_cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        #[multiversion::inherit_target]
+        fn run(cases: &[(RayLanes, Node, f32, f32)]) -> Option<Vec<([u32; 8], u32)>> {
+            let test = |(l, n, lo, hi): &(RayLanes, Node, f32, f32)| {
+                let (t, mask) = hit_children_avx2(l, n, *lo, *hi);
+                (t.to_array().map(f32::to_bits), mask)
+            };
+            Some(cases.iter().map(test).collect())
+        }
+        #[multiversion::target::target_cfg(not(all(
+            target_arch = "x86_64",
+            target_feature = "avx2"
+        )))]
+        fn run(_: &[(RayLanes, Node, f32, f32)]) -> Option<Vec<([u32; 8], u32)>> {
+            None
+        }
+        run(cases)
+    }
+
+    /// The AVX2 box test gives the portable one's distances and masks bit
+    /// for bit (so traversal order and images do not depend on the CPU):
+    /// random boxes with empty slots, rays with zero direction components,
+    /// intervals that cut boxes or are empty.
+    #[test]
+    fn avx2_box_test_equals_portable_one() {
+        let mut rng = Pcg32::new(21, 4);
+        let mut cases = Vec::new();
+        for _ in 0..4000 {
+            let used = 1 + (rng.next_f32() * 8.0) as usize;
+            let boxes = (0..used.min(8)).map(|_| {
+                let c = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 8.0;
+                let h = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0;
+                Bounds3 {
+                    min: c - h,
+                    max: c + h,
+                }
+            });
+            let node = Node::with_boxes(boxes);
+            let o = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 12.0;
+            // Towards the middle of the boxes' region, some axis-parallel.
+            let target = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 4.0;
+            let mut d = (target - o).normalize();
+            if rng.next_f32() < 0.2 {
+                d.y = 0.0;
+            }
+            let ray = Ray::new(o, d);
+            let t_min = rng.next_f32() * 2.0;
+            // Some empty intervals: a box containing t_min is met (≤, not <).
+            let t_max = if rng.next_f32() < 0.1 {
+                t_min
+            } else {
+                t_min + rng.next_f32() * 10.0
+            };
+            cases.push((RayLanes::new(&ray.vectors()), node, t_min, t_max));
+        }
+        let Some(avx2) = avx2_box_tests(&cases) else {
+            eprintln!("skipped: this CPU has no AVX2");
+            return;
+        };
+        let mut hits = 0;
+        for ((l, n, lo, hi), got) in cases.iter().zip(avx2) {
+            let (t, mask) = l.hit_children(n, *lo, *hi);
+            assert_eq!((t.to_array().map(f32::to_bits), mask), got);
+            hits += mask.count_ones();
+        }
+        assert!(hits > 500, "too few boxes met ({hits}) to test anything");
+    }
 
     /// Random spheres as primitives (simple exact intersection).
     fn sphere_bounds(spheres: &[(Vec3, f32)]) -> Vec<Bounds3> {

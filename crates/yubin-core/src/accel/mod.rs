@@ -6,5 +6,8 @@
 mod bvh;
 mod huge_array;
 
+#[cfg(target_arch = "x86_64")]
+pub(crate) use bvh::hit_children_avx2;
+pub(crate) use bvh::{hit_children, Node, RayLanes};
 pub use bvh::{Bvh, BvhStats, PrimCost, MAX_LEAF, MAX_POSITIONS};
 pub use huge_array::{huge_array_bytes, HugeArray};
