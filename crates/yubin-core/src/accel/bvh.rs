@@ -590,13 +590,21 @@ pub(crate) fn hit_children(lanes: &RayLanes, node: &Node, t_min: f32, t_max: f32
     lanes.hit_children(node, t_min, t_max)
 }
 
+/// In a build for AVX2 the portable test is already one AVX register per
+/// plane (`wide::f32x8` is then `__m256`), and a `#[target_feature]`
+/// function could not be called without `unsafe` from code that has the
+/// features by the build's flags only.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub(crate) use hit_children as hit_children_avx2;
+
 /// A node's box test ([`RayLanes::hit_children`]) in one 8-wide AVX
 /// register per plane instead of two SSE halves, for traversal compiled
 /// for AVX2 and chosen at run time (see `scene.rs`). Multiply then add,
 /// and the same min/max operand order: the same distances and masks bit
 /// for bit, so the traversal order, and every image, is the same on
-/// either path.
-#[cfg(target_arch = "x86_64")]
+/// either path. A build for AVX2 (`target-cpu`) needs no second test:
+/// `wide` is AVX there (see below).
+#[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
 #[target_feature(enable = "avx2")]
 #[inline]
 pub(crate) fn hit_children_avx2(

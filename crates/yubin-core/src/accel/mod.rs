@@ -8,6 +8,9 @@ mod huge_array;
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) use bvh::hit_children_avx2;
-pub(crate) use bvh::{hit_children, Node, RayLanes};
+// Unused in a build for AVX2, whose traversal takes `hit_children_avx2`.
+#[allow(unused_imports)]
+pub(crate) use bvh::hit_children;
+pub(crate) use bvh::{Node, RayLanes};
 pub use bvh::{Bvh, BvhStats, PrimCost, MAX_LEAF, MAX_POSITIONS};
 pub use huge_array::{huge_array_bytes, HugeArray};
