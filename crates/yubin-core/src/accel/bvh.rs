@@ -9,7 +9,9 @@
 //! in structure-of-arrays form, so one ray meets all eight with a handful
 //! of SIMD instructions (`wide::f32x8`: AVX when the build targets it, two
 //! SSE halves on baseline x86-64, NEON on ARM, scalar
-//! elsewhere; no `unsafe`).
+//! elsewhere; no `unsafe`). A portable x86-64 build also has an AVX2 node
+//! test ([`hit_children_avx2`]) for traversal that `scene.rs` compiles for
+//! AVX2 and chooses at run time; both tests give the same bits.
 
 use super::HugeArray;
 use crate::math::{Bounds3, Ray, RayVectors};

@@ -11,6 +11,6 @@ pub(crate) use bvh::hit_children_avx2;
 // Unused in a build for AVX2, whose traversal takes `hit_children_avx2`.
 #[allow(unused_imports)]
 pub(crate) use bvh::hit_children;
-pub(crate) use bvh::{Node, RayLanes};
 pub use bvh::{Bvh, BvhStats, PrimCost, MAX_LEAF, MAX_POSITIONS};
+pub(crate) use bvh::{Node, RayLanes};
 pub use huge_array::{huge_array_bytes, HugeArray};
