@@ -625,15 +625,18 @@ impl Scene {
     fn interaction(&self, ray: &Ray, closest: &Ray, h: HitRecord) -> SurfaceInteraction {
         let shape = &self.shapes[h.shape as usize];
         let mut si = match h.instance {
+            // The shape's interaction already looks back along `closest`,
+            // whose direction is `ray`'s.
             None => shape.interaction(&self.meshes, h.prim, closest, h.hit),
             Some(inst) => {
                 let t = &self.instances[inst as usize].to_world;
                 let local_ray = to_local_ray(closest, t);
                 let local = shape.interaction(&self.meshes, h.prim, &local_ray, h.hit);
-                instance_to_world(&local, t)
+                let mut si = instance_to_world(&local, t);
+                si.wo = -ray.d.normalize();
+                si
             }
         };
-        si.wo = -ray.d.normalize();
         si.shape = match h.instance {
             Some(inst) => self.placed_shape(inst, h.shape),
             None => h.shape,
