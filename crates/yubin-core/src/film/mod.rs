@@ -84,6 +84,22 @@ impl Tile {
     }
 }
 
+/// ⌊v⌋ for |v| < 2³¹ (pixel coordinates), by truncation: baseline x86-64
+/// has no rounding instruction and would call a software `floorf`. Other
+/// values give an integer far outside any tile buffer.
+#[inline]
+fn floor_i32(v: f32) -> i32 {
+    let t = v as i32;
+    t - i32::from((t as f32) > v)
+}
+
+/// ⌈v⌉ for |v| < 2³¹, as [`floor_i32`].
+#[inline]
+fn ceil_i32(v: f32) -> i32 {
+    let t = v as i32;
+    t + i32::from((t as f32) < v)
+}
+
 /// The widest footprint (pixels) that [`TileBuffer::splat`] takes on its
 /// fast path: every filter up to a radius of 3.5 pixels.
 const FIXED_COLUMNS: usize = 8;
@@ -197,23 +213,25 @@ impl TileBuffer {
     #[inline]
     fn footprint(&self, filter: &FilterTable, pos: Vec2) -> Option<Footprint> {
         let r = filter.radius();
-        let lo = Vec2::new(
-            (pos.x - r - 0.5).ceil() - self.origin[0] as f32,
-            (pos.y - r - 0.5).ceil() - self.origin[1] as f32,
-        );
-        let hi = Vec2::new(
-            (pos.x + r - 0.5).floor() - self.origin[0] as f32,
-            (pos.y + r - 0.5).floor() - self.origin[1] as f32,
-        );
-        let inside = lo.cmpge(Vec2::ZERO).all()
-            && hi.x < self.size[0] as f32
-            && hi.y < self.size[1] as f32
-            && hi.x - lo.x < FIXED_COLUMNS as f32
-            && hi.cmpge(lo).all();
+        let lo = [
+            i64::from(ceil_i32(pos.x - r - 0.5)) - self.origin[0],
+            i64::from(ceil_i32(pos.y - r - 0.5)) - self.origin[1],
+        ];
+        let hi = [
+            i64::from(floor_i32(pos.x + r - 0.5)) - self.origin[0],
+            i64::from(floor_i32(pos.y + r - 0.5)) - self.origin[1],
+        ];
+        let inside = lo[0] >= 0
+            && lo[1] >= 0
+            && hi[0] < self.size[0] as i64
+            && hi[1] < self.size[1] as i64
+            && hi[0] - lo[0] < FIXED_COLUMNS as i64
+            && hi[0] >= lo[0]
+            && hi[1] >= lo[1];
         inside.then(|| Footprint {
-            origin: [lo.x as usize, lo.y as usize],
-            columns: (hi.x - lo.x) as usize + 1,
-            rows: (hi.y - lo.y) as usize + 1,
+            origin: [lo[0] as usize, lo[1] as usize],
+            columns: (hi[0] - lo[0]) as usize + 1,
+            rows: (hi[1] - lo[1]) as usize + 1,
         })
     }
 
@@ -496,6 +514,23 @@ mod tests {
                 }
             }
             assert!(total_w > 0.0);
+        }
+    }
+
+    /// Integer floor and ceiling agree with `f32::floor`/`ceil` on pixel
+    /// coordinates: negative, integral, just off integers, large.
+    #[test]
+    fn integer_floor_and_ceiling() {
+        let mut rng = crate::sampler::Pcg32::new(3, 9);
+        let mut values = vec![0.0, -0.0, 1.0, -1.0, 2.5, -2.5, 16777215.0, -16777216.0];
+        for k in -40..40 {
+            let x = k as f32 * 0.5;
+            values.extend([x, x.next_up(), x.next_down()]);
+        }
+        values.extend((0..1000).map(|_| (rng.next_f32() - 0.5) * 1e5));
+        for v in values {
+            assert_eq!(floor_i32(v) as f32, v.floor(), "floor {v}");
+            assert_eq!(ceil_i32(v) as f32, v.ceil(), "ceil {v}");
         }
     }
 
