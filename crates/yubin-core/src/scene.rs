@@ -138,7 +138,7 @@ macro_rules! with_node_test {
             #[target_cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
             #[inline(always)]
             fn traverse($($arg: $ty),*) -> $ret {
-                $by($($arg,)* crate::accel::hit_children)
+                $by($($arg,)* RayLanes::hit_children)
             }
             traverse($($arg),*)
         }

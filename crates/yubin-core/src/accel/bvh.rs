@@ -562,7 +562,7 @@ impl RayLanes {
     /// Entry distances of the eight child boxes and a bit mask of those
     /// the ray meets within `[t_min, t_max]`.
     #[inline(always)]
-    fn hit_children(&self, node: &Node, t_min: f32, t_max: f32) -> (f32x8, u32) {
+    pub(crate) fn hit_children(&self, node: &Node, t_min: f32, t_max: f32) -> (f32x8, u32) {
         let mut near = [f32x8::ZERO; 3];
         let mut far = [f32x8::ZERO; 3];
         for a in 0..3 {
@@ -585,19 +585,20 @@ impl RayLanes {
     }
 }
 
-/// The portable node test ([`RayLanes::hit_children`]) as a function, for
-/// [`Bvh::closest_leaves_by`] and [`Bvh::any_leaves_by`].
-#[inline(always)]
-pub(crate) fn hit_children(lanes: &RayLanes, node: &Node, t_min: f32, t_max: f32) -> (f32x8, u32) {
-    lanes.hit_children(node, t_min, t_max)
-}
-
 /// In a build for AVX2 the portable test is already one AVX register per
 /// plane (`wide::f32x8` is then `__m256`), and a `#[target_feature]`
 /// function could not be called without `unsafe` from code that has the
 /// features by the build's flags only.
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-pub(crate) use hit_children as hit_children_avx2;
+#[inline(always)]
+pub(crate) fn hit_children_avx2(
+    lanes: &RayLanes,
+    node: &Node,
+    t_min: f32,
+    t_max: f32,
+) -> (f32x8, u32) {
+    lanes.hit_children(node, t_min, t_max)
+}
 
 /// A node's box test ([`RayLanes::hit_children`]) in one 8-wide AVX
 /// register per plane instead of two SSE halves, for traversal compiled

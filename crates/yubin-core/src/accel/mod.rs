@@ -8,9 +8,6 @@ mod huge_array;
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) use bvh::hit_children_avx2;
-// Unused in a build for AVX2, whose traversal takes `hit_children_avx2`.
-#[allow(unused_imports)]
-pub(crate) use bvh::hit_children;
 pub use bvh::{Bvh, BvhStats, PrimCost, MAX_LEAF, MAX_POSITIONS};
 pub(crate) use bvh::{Node, RayLanes};
 pub use huge_array::{huge_array_bytes, HugeArray};

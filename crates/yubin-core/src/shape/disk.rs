@@ -115,24 +115,23 @@ mod tests {
     use crate::shape::Shape;
     use glam::Affine3A;
 
-    #[test]
-    fn uv_derivatives_follow_the_surface() {
+    /// A disk turned about y and squashed into an ellipse.
+    fn skewed() -> Shape {
         let m = Affine3A::from_rotation_y(0.5) * Affine3A::from_scale(Vec3::new(0.8, 0.5, 1.0));
-        let s = Shape::Disk(Disk {
+        Shape::Disk(Disk {
             to_world: Transform::new(m).unwrap(),
             flip_normals: false,
-        });
-        check_uv_derivatives(&s, Vec3::new(0.3, 0.2, 2.0), Vec3::ZERO);
+        })
+    }
+
+    #[test]
+    fn uv_derivatives_follow_the_surface() {
+        check_uv_derivatives(&skewed(), Vec3::new(0.3, 0.2, 2.0), Vec3::ZERO);
     }
 
     #[test]
     fn chi2_disk_sampling() {
-        let m = Affine3A::from_rotation_y(0.5) * Affine3A::from_scale(Vec3::new(0.8, 0.5, 1.0));
-        let s = Shape::Disk(Disk {
-            to_world: Transform::new(m).unwrap(),
-            flip_normals: false,
-        });
-        check_shape_sampling(&s, &[], Vec3::new(0.1, 0.3, 1.0));
+        check_shape_sampling(&skewed(), &[], Vec3::new(0.1, 0.3, 1.0));
     }
 
     #[test]
