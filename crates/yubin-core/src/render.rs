@@ -6,6 +6,8 @@
 use crate::film::{Framebuffer, Tile, TileBuffer};
 use crate::filter::FilterTable;
 use crate::integrator::{Integrator, Layer};
+use crate::math::Ray;
+use crate::sampler::SampleStream;
 use crate::{Rgb, Scene};
 use glam::Vec2;
 use rayon::prelude::*;
@@ -438,54 +440,146 @@ struct TileResult {
 }
 
 impl TileJob<'_> {
-    /// Renders the job's samples of every active pixel of `tile`.
+    /// Renders the job's samples of every active pixel of `tile`, in
+    /// batches of [`BATCH`] camera rays (see
+    /// [`Integrator::sample_packet`]), splatted in the order they were
+    /// taken.
     fn render(&self, tile: Tile) -> TileResult {
         let scene = self.scene;
         let film = &scene.film;
-        let mut buffer = TileBuffer::new(tile, self.filter, self.channels);
-        // One buffer per tile (not per sample), sized to the integrator.
-        let mut values = vec![0.0f32; self.channels];
-        let values = values.as_mut_slice();
-        let mut dropped = 0;
-        let mut halves = vec![Halves::default(); tile.width() * tile.height()];
+        let mut out = TileOutput {
+            buffer: TileBuffer::new(tile, self.filter, self.channels),
+            // One buffer per tile (not per sample), sized to the integrator.
+            values: vec![0.0f32; self.channels * BATCH],
+            dropped: 0,
+            halves: vec![Halves::default(); tile.width() * tile.height()],
+            tile,
+        };
+        let mut packet = Packet::default();
+        packet.reserve();
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let pixel = y as usize * film.crop_size[0] as usize + x as usize;
                 if self.active.is_some_and(|a| !a[pixel]) {
                     continue;
                 }
-                // Pixel coordinates of the full image (crop offset applied).
-                let (fx, fy) = (x + film.crop_offset[0], y + film.crop_offset[1]);
                 for index in self.samples.clone() {
-                    let mut stream = scene.sampler.stream(fx, fy, index, self.seed);
-                    let offset = stream.next_2d();
-                    let film_p = Vec2::new(fx as f32, fy as f32) + offset;
-                    let u_lens = if scene.camera.needs_lens_sample() {
-                        stream.next_2d()
-                    } else {
-                        Vec2::ZERO
-                    };
-                    values.fill(0.0);
-                    // A ray the lens stops (cat's eye) counts as black.
-                    if let Some(ray) = scene.camera.generate_ray(film_p, u_lens) {
-                        self.integrator.sample(scene, &ray, &mut stream, values);
-                    }
-                    if values.iter().all(|v| v.is_finite()) {
-                        buffer.splat(self.filter, Vec2::new(x as f32, y as f32) + offset, values);
-                        let i = (y - tile.y0) as usize * tile.width() + (x - tile.x0) as usize;
-                        let lum = crate::spectrum::luminance(Rgb::from_slice(&values[..3]));
-                        halves[i].add(index, lum);
-                    } else {
-                        dropped += 1;
+                    packet.push(self.camera_sample(x, y, index));
+                    if packet.rays.len() == BATCH {
+                        self.trace(&mut packet, &mut out);
                     }
                 }
             }
         }
+        self.trace(&mut packet, &mut out);
         TileResult {
             tile,
-            buffer,
-            dropped,
-            halves,
+            buffer: out.buffer,
+            dropped: out.dropped,
+            halves: out.halves,
         }
     }
+
+    /// Sample `index` of pixel (`x`, `y`) of the crop window: its sample
+    /// stream, film offset and camera ray (none when the lens stops it,
+    /// a cat's eye: black).
+    fn camera_sample(&self, x: u32, y: u32, index: u32) -> CameraSample {
+        let scene = self.scene;
+        let film = &scene.film;
+        // Pixel coordinates of the full image (crop offset applied).
+        let (fx, fy) = (x + film.crop_offset[0], y + film.crop_offset[1]);
+        let mut stream = scene.sampler.stream(fx, fy, index, self.seed);
+        let offset = stream.next_2d();
+        let film_p = Vec2::new(fx as f32, fy as f32) + offset;
+        let u_lens = if scene.camera.needs_lens_sample() {
+            stream.next_2d()
+        } else {
+            Vec2::ZERO
+        };
+        CameraSample {
+            x,
+            y,
+            index,
+            offset,
+            ray: scene.camera.generate_ray(film_p, u_lens),
+            stream,
+        }
+    }
+
+    /// Traces the samples waiting in `packet` and splats them in order.
+    fn trace(&self, packet: &mut Packet, out: &mut TileOutput) {
+        let n = packet.rays.len();
+        let values = &mut out.values[..n * self.channels];
+        self.integrator
+            .sample_packet(self.scene, &packet.rays, &mut packet.streams, values);
+        for (&(x, y, index, offset), values) in
+            packet.spots.iter().zip(values.chunks_exact(self.channels))
+        {
+            if values.iter().all(|v| v.is_finite()) {
+                let tile = out.tile;
+                out.buffer
+                    .splat(self.filter, Vec2::new(x as f32, y as f32) + offset, values);
+                let i = (y - tile.y0) as usize * tile.width() + (x - tile.x0) as usize;
+                let lum = crate::spectrum::luminance(Rgb::from_slice(&values[..3]));
+                out.halves[i].add(index, lum);
+            } else {
+                out.dropped += 1;
+            }
+        }
+        packet.clear();
+    }
+}
+
+/// A camera sample before it is traced.
+struct CameraSample {
+    x: u32,
+    y: u32,
+    index: u32,
+    offset: Vec2,
+    ray: Option<Ray>,
+    stream: SampleStream,
+}
+
+/// Camera samples traced together: enough that a packet of
+/// [`crate::accel::PACKET_RAYS`] paths, each lane taking the next sample
+/// as its path ends, is seldom short of paths.
+const BATCH: usize = 256;
+
+/// Camera samples waiting to be traced together.
+#[derive(Default)]
+struct Packet {
+    rays: Vec<Option<Ray>>,
+    streams: Vec<SampleStream>,
+    /// Pixel, sample index and film offset of each.
+    spots: Vec<(u32, u32, u32, Vec2)>,
+}
+
+impl Packet {
+    fn reserve(&mut self) {
+        self.rays.reserve(BATCH);
+        self.streams.reserve(BATCH);
+        self.spots.reserve(BATCH);
+    }
+
+    fn push(&mut self, s: CameraSample) {
+        self.rays.push(s.ray);
+        self.streams.push(s.stream);
+        self.spots.push((s.x, s.y, s.index, s.offset));
+    }
+
+    fn clear(&mut self) {
+        self.rays.clear();
+        self.streams.clear();
+        self.spots.clear();
+    }
+}
+
+/// What a tile's samples have added up to.
+struct TileOutput {
+    tile: Tile,
+    buffer: TileBuffer,
+    /// Room for one packet's values.
+    values: Vec<f32>,
+    dropped: u64,
+    halves: Vec<Halves>,
 }

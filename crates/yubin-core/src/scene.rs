@@ -27,6 +27,8 @@ use wide::f32x8;
 
 use rayon::prelude::*;
 
+mod packet;
+
 // A leaf is tested as one triangle packet.
 const _: () = assert!(crate::accel::MAX_LEAF == crate::shape::PACKET);
 
@@ -1509,7 +1511,7 @@ mod tests {
     }
 
     /// Every shape kind, in the world and in two instances of a group.
-    fn mixed_scene() -> Scene {
+    pub(super) fn mixed_scene() -> Scene {
         let mut b = SceneBuilder::new();
         let mut cube = cube_mesh();
         cube.transform(&t(
@@ -1644,19 +1646,24 @@ mod tests {
         assert_closest_hit_is_brute_force(&instanced, 8);
     }
 
+    /// A ray from within a few units of the origin: half aim at the
+    /// geometry, half go anywhere.
+    pub(super) fn random_ray(rng: &mut Pcg32) -> Ray {
+        let o = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 10.0;
+        let d = if rng.next_f32() < 0.5 {
+            square_to_uniform_sphere(rng.next_2d())
+        } else {
+            ((Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 5.0 - o)
+                .normalize()
+        };
+        Ray::new(o, d)
+    }
+
     fn assert_closest_hit_is_brute_force(scene: &Scene, seed: u64) {
         let mut rng = Pcg32::new(seed, 0);
         let mut hits = 0;
         for _ in 0..20_000 {
-            let o = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 10.0;
-            // Half the rays aim at the geometry, half go anywhere.
-            let d = if rng.next_f32() < 0.5 {
-                square_to_uniform_sphere(rng.next_2d())
-            } else {
-                ((Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 5.0 - o)
-                    .normalize()
-            };
-            let ray = Ray::new(o, d);
+            let ray = random_ray(&mut rng);
             let expected = brute_force(scene, &ray);
             let got = scene.intersect(&ray);
             match (expected, got) {

@@ -14,7 +14,7 @@
 //! AVX2 and chooses at run time; both tests give the same bits.
 
 use super::HugeArray;
-use crate::math::{Bounds3, Ray, RayVectors};
+use crate::math::{Bounds3, Ray, RayPacket, RayVectors};
 use arrayvec::ArrayVec;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3A, Vec4};
@@ -529,7 +529,16 @@ pub(crate) struct RayLanes {
 /// Unit round-off of `f32`.
 const ROUND_OFF: f32 = f32::EPSILON * 0.5;
 
-impl RayLanes {
+/// A ray's slab values per axis (see [`RayLanes`]): the reciprocal
+/// direction and the near offset, and the far ones, scaled.
+struct Slabs {
+    inv_d: Vec3A,
+    near_offset: Vec3A,
+    far_inv_d: Vec3A,
+    far_offset: Vec3A,
+}
+
+impl Slabs {
     #[inline]
     fn new(ray: &RayVectors) -> Self {
         // Reciprocals are clamped to ±1e20 (a zero direction component
@@ -543,17 +552,29 @@ impl RayLanes {
         let grow = 1.0 + 8.0 * ROUND_OFF;
         let far = slack - c;
         // Rounding the product must not shrink the far distance.
-        let far_offset = far * grow + ROUND_OFF * far.abs();
+        Self {
+            inv_d: inv,
+            near_offset: -c - slack,
+            far_inv_d: inv * grow,
+            far_offset: far * grow + ROUND_OFF * far.abs(),
+        }
+    }
+}
+
+impl RayLanes {
+    #[inline]
+    fn new(ray: &RayVectors) -> Self {
+        let slabs = Slabs::new(ray);
         let splat = |v: Vec3A| v.to_array().map(f32x8::splat);
         // From the reciprocal, not the direction: -0.0 has a negative
         // reciprocal but does not compare below zero.
-        let neg = inv.cmplt(Vec3A::ZERO).bitmask() as usize;
+        let neg = slabs.inv_d.cmplt(Vec3A::ZERO).bitmask() as usize;
         let near = std::array::from_fn(|a| 2 * a + ((neg >> a) & 1));
         Self {
-            inv_d: splat(inv),
-            near_offset: splat(-c - slack),
-            far_inv_d: splat(inv * grow),
-            far_offset: splat(far_offset),
+            inv_d: splat(slabs.inv_d),
+            near_offset: splat(slabs.near_offset),
+            far_inv_d: splat(slabs.far_inv_d),
+            far_offset: splat(slabs.far_offset),
             near,
             far: near.map(|n| n ^ 1),
         }
@@ -582,6 +603,115 @@ impl RayLanes {
             .fast_min(far[1])
             .fast_min(far[2].fast_min(f32x8::splat(t_max)));
         (t_near, t_near.cmp_le(t_far).move_mask() as u32)
+    }
+}
+
+/// Eight rays prepared for box tests together, a lane per ray: each lane
+/// holds what [`RayLanes`] holds for its ray (the same formulas, so the
+/// test is as conservative).
+pub(crate) struct PacketLanes {
+    inv_d: [f32x8; 3],
+    near_offset: [f32x8; 3],
+    far_inv_d: [f32x8; 3],
+    far_offset: [f32x8; 3],
+    t_min: f32x8,
+}
+
+impl PacketLanes {
+    /// The lanes of `rays`: [`Slabs::new`] lane by lane.
+    #[inline]
+    pub(crate) fn new(rays: &RayPacket) -> Self {
+        let limit = f32x8::splat(1e20);
+        let inv = rays
+            .d
+            .map(|d| (f32x8::ONE / d).fast_max(-limit).fast_min(limit));
+        let c: [f32x8; 3] = std::array::from_fn(|a| rays.o[a] * inv[a]);
+        let slack = c.map(|c| f32x8::splat(16.0 * ROUND_OFF) * c.abs());
+        let grow = f32x8::splat(1.0 + 8.0 * ROUND_OFF);
+        let far: [f32x8; 3] = std::array::from_fn(|a| slack[a] - c[a]);
+        Self {
+            inv_d: inv,
+            near_offset: std::array::from_fn(|a| -c[a] - slack[a]),
+            far_inv_d: inv.map(|i| i * grow),
+            far_offset: far.map(|f| f * grow + f32x8::splat(ROUND_OFF) * f.abs()),
+            t_min: rays.t_min,
+        }
+    }
+
+    /// The lanes whose ray meets child `c`'s box of `node` within
+    /// `[t_min, t_max]`. The near plane of an axis is the one nearer along
+    /// each lane's own direction: the lesser distance (and the greater
+    /// for the far plane), which is the plane [`RayLanes`] picks by sign.
+    #[inline(always)]
+    fn hit_child(&self, node: &Node, c: usize, t_max: f32x8) -> u32 {
+        let mut near = self.t_min;
+        let mut far = t_max;
+        for a in 0..3 {
+            let lo = f32x8::splat(node.planes[2 * a].as_array_ref()[c]);
+            let hi = f32x8::splat(node.planes[2 * a + 1].as_array_ref()[c]);
+            let (inv, no) = (self.inv_d[a], self.near_offset[a]);
+            let (finv, fo) = (self.far_inv_d[a], self.far_offset[a]);
+            near = near.fast_max(lo.mul_add(inv, no).fast_min(hi.mul_add(inv, no)));
+            far = far.fast_min(lo.mul_add(finv, fo).fast_max(hi.mul_add(finv, fo)));
+        }
+        near.cmp_le(far).move_mask() as u32
+    }
+}
+
+/// Rays a packet holds.
+pub const PACKET_RAYS: usize = 8;
+
+/// Trees of at most this many nodes may be traversed by packets (see
+/// [`Bvh::packet_leaves`]); its stack then never overflows.
+pub const PACKET_NODES: usize = 16;
+
+impl Bvh {
+    /// Whether the tree is small enough for [`Bvh::packet_leaves`]: in a
+    /// small tree the rays of a packet, however incoherent, meet mostly
+    /// the same few boxes, so testing a box for eight rays at once does
+    /// the work of eight single-ray tests.
+    pub(crate) fn takes_packets(&self) -> bool {
+        self.nodes.len() <= PACKET_NODES
+    }
+
+    /// Calls `leaf(start, count, lanes, t_max)` for every leaf whose box
+    /// some lanes of `active` meet within their intervals (`lanes`: those
+    /// lanes), depth first; `leaf` returns the lanes' new `t_max` (their
+    /// closest hits so far). Only for trees that [`Bvh::takes_packets`].
+    #[inline]
+    pub(crate) fn packet_leaves(
+        &self,
+        lanes: &PacketLanes,
+        active: u32,
+        mut t_max: f32x8,
+        mut leaf: impl FnMut(usize, usize, u32, f32x8) -> f32x8,
+    ) {
+        debug_assert!(self.takes_packets());
+        if self.root == EMPTY || active == 0 {
+            return;
+        }
+        // Each node pushes at most WIDTH entries, and a tree that takes
+        // packets has at most PACKET_NODES nodes.
+        let mut stack: ArrayVec<(u32, u32), { PACKET_NODES * WIDTH }> = ArrayVec::new();
+        let _ = stack.try_push((self.root, active));
+        while let Some((code, mask)) = stack.pop() {
+            if code & LEAF_BIT != 0 {
+                let (start, count) = leaf_span(code);
+                t_max = leaf(start, count, mask, t_max);
+                continue;
+            }
+            let node = &self.nodes[code as usize];
+            // Pushed last to first, so the first child is visited first.
+            for c in (0..WIDTH).rev() {
+                if node.child[c] == EMPTY {
+                    continue;
+                }
+                let hit = lanes.hit_child(node, c, t_max) & mask;
+                if hit != 0 {
+                    let _ = stack.try_push((node.child[c], hit));
+                }
+            }
+        }
     }
 }
 

@@ -8,6 +8,6 @@ mod huge_array;
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) use bvh::hit_children_avx2;
-pub use bvh::{Bvh, BvhStats, PrimCost, MAX_LEAF, MAX_POSITIONS};
-pub(crate) use bvh::{Node, RayLanes};
+pub use bvh::{Bvh, BvhStats, PrimCost, MAX_LEAF, MAX_POSITIONS, PACKET_NODES, PACKET_RAYS};
+pub(crate) use bvh::{Node, PacketLanes, RayLanes};
 pub use huge_array::{huge_array_bytes, HugeArray};

@@ -158,6 +158,27 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
         let l = self.li(scene, ray, sampler);
         out[..3].copy_from_slice(&l.to_array());
     }
+
+    /// [`Integrator::sample`] for several camera rays, each with its own
+    /// sample stream and its `channel_count()` values of `out` in turn
+    /// (zero for a missing ray, one the lens stopped). An integrator that
+    /// traces its paths together ([`Scene::closest_packet`]) overrides
+    /// it; every value is the one `sample` gives.
+    fn sample_packet(
+        &self,
+        scene: &Scene,
+        rays: &[Option<Ray>],
+        samplers: &mut [SampleStream],
+        out: &mut [f32],
+    ) {
+        let channels = self.channel_count();
+        for ((ray, sampler), out) in rays.iter().zip(samplers).zip(out.chunks_mut(channels)) {
+            out.fill(0.0);
+            if let Some(ray) = ray {
+                self.sample(scene, ray, sampler, out);
+            }
+        }
+    }
 }
 
 /// The vertex a ray left from, as emission and MIS see it.

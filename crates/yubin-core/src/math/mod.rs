@@ -11,6 +11,7 @@ pub use frame::{coordinate_system, Frame};
 pub use transform::Transform;
 
 use glam::{Vec3, Vec3A};
+use wide::f32x8;
 
 /// Relative epsilon used to push spawned rays off surfaces (in units of
 /// the hit point's magnitude), enough for `f32` intersection round-off.
@@ -83,6 +84,33 @@ pub struct RayVectors {
     pub o: Vec3A,
     /// Direction.
     pub d: Vec3A,
+}
+
+/// Eight rays, structure of arrays: per axis a lane per ray, for testing
+/// one shape against all of them at once.
+#[derive(Clone, Copy, Debug)]
+pub struct RayPacket {
+    /// Origins.
+    pub o: [f32x8; 3],
+    /// Directions.
+    pub d: [f32x8; 3],
+    /// Starts of the valid intervals.
+    pub t_min: f32x8,
+}
+
+impl RayPacket {
+    /// The packet of `rays`.
+    #[inline]
+    pub fn new(rays: &[Ray; 8]) -> Self {
+        let lanes = |v: fn(&Ray) -> Vec3| {
+            std::array::from_fn(|a| f32x8::new(std::array::from_fn(|l| v(&rays[l])[a])))
+        };
+        Self {
+            o: lanes(|r| r.o),
+            d: lanes(|r| r.d),
+            t_min: f32x8::new(rays.map(|r| r.t_min)),
+        }
+    }
 }
 
 /// Offsets `p` along the geometric normal `n`, to the side that `d` points

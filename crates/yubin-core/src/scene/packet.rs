@@ -1,0 +1,278 @@
+//! Closest hits of eight rays at once ([`Scene::closest_packet`]).
+//!
+//! In a small scene (a room of a few walls, spheres and boxes) a ray
+//! meets most of the few boxes of the BVH whatever its direction, and a
+//! single ray pays the whole traversal and every shape test alone. Eight
+//! rays traversing together share each box test (eight lanes, one child
+//! box) and each sphere or rectangle test (one shape, eight lanes), the
+//! way packet tracers trace coherent rays (Wald et al. 2001, "Interactive
+//! Rendering with Coherent Ray Tracing"); here it pays even for
+//! incoherent ones because the tree is small. Large trees, where the
+//! rays' paths part, are traversed ray by ray.
+//!
+//! A lane's hit is the one [`Scene::closest`] finds for its ray: the box
+//! tests are conservative, and spheres and rectangles are tested with the
+//! single-ray arithmetic lane by lane, bit for bit; other shapes,
+//! triangles and instances are tested ray by ray.
+
+use super::{Closest, Group, HitRecord, Item, Scene};
+use crate::accel::{PacketLanes, PACKET_RAYS};
+use crate::math::{Ray, RayPacket};
+use crate::shape::{PrimHit, Shape, ShapeModel, WatertightRay};
+use glam::Vec2;
+use wide::f32x8;
+
+/// The lanes set in `mask`, lowest first.
+fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            lane
+        })
+    })
+}
+
+/// The closest hits found so far, per lane.
+struct PacketHits<'r> {
+    rays: &'r [Ray; PACKET_RAYS],
+    t_max: [f32; PACKET_RAYS],
+    best: [Option<Closest>; PACKET_RAYS],
+}
+
+impl PacketHits<'_> {
+    fn record(&mut self, lane: usize, hit: Closest, t: f32) {
+        self.best[lane] = Some(hit);
+        self.t_max[lane] = t;
+    }
+
+    /// Lane `lane`'s ray, cut at its closest hit so far.
+    fn ray(&self, lane: usize) -> Ray {
+        Ray {
+            t_max: self.t_max[lane],
+            ..self.rays[lane]
+        }
+    }
+}
+
+impl Scene {
+    /// The closest hits of the rays of `rays` whose bit is set in
+    /// `active` (the others get `None`), each the hit [`Scene::closest`]
+    /// finds for it.
+    pub fn closest_packet(
+        &self,
+        rays: &[Ray; PACKET_RAYS],
+        active: u32,
+    ) -> [Option<HitRecord>; PACKET_RAYS] {
+        let g = &self.groups[0];
+        if !g.bvh.takes_packets() {
+            return std::array::from_fn(|l| {
+                (active >> l & 1 != 0)
+                    .then(|| self.closest(&rays[l]))
+                    .flatten()
+            });
+        }
+        let packet = RayPacket::new(rays);
+        let lanes = PacketLanes::new(&packet);
+        let mut hits = PacketHits {
+            rays,
+            t_max: rays.map(|r| r.t_max),
+            best: [None; PACKET_RAYS],
+        };
+        // Per lane, its ray prepared for triangle tests, when it meets one.
+        let mut sheared: [Option<WatertightRay>; PACKET_RAYS] = [None; PACKET_RAYS];
+        let t_max = f32x8::new(hits.t_max);
+        g.bvh
+            .packet_leaves(&lanes, active, t_max, |start, count, mask, _| {
+                if g.tris.has_triangles(start) {
+                    for lane in lanes_of(mask) {
+                        let r = &rays[lane];
+                        let wr = sheared[lane].get_or_insert_with(|| {
+                            WatertightRay::from_vectors(&r.vectors(), r.t_min)
+                        });
+                        let t_max = hits.t_max[lane];
+                        if let Some((i, hit)) = wr.intersect_packet(&g.tris, start, count, t_max) {
+                            hits.record(lane, Closest::Triangle(g.tris.id(start + i), hit), hit.t);
+                        }
+                    }
+                }
+                if !g.only_triangles {
+                    for item in &g.items[start..start + count] {
+                        self.item_packet(*item, &packet, mask, &mut hits);
+                    }
+                }
+                f32x8::new(hits.t_max)
+            });
+        hits.best.map(|best| {
+            best.map(|closest| match closest {
+                Closest::Other(rec) => rec,
+                Closest::Triangle(id, hit) => {
+                    let (shape, prim) = g.triangle(id);
+                    HitRecord {
+                        shape,
+                        prim,
+                        hit,
+                        instance: None,
+                    }
+                }
+            })
+        })
+    }
+
+    /// Tests `item` (not a triangle) against the lanes `mask` of `packet`.
+    fn item_packet(&self, item: Item, packet: &RayPacket, mask: u32, hits: &mut PacketHits) {
+        match item {
+            Item::Triangle { .. } | Item::Empty => {}
+            Item::Prim { shape, prim } => {
+                let record = |hits: &mut PacketHits, lane: usize, hit: PrimHit| {
+                    let rec = HitRecord {
+                        shape,
+                        prim,
+                        hit,
+                        instance: None,
+                    };
+                    hits.record(lane, Closest::Other(rec), hit.t);
+                };
+                let t_max = || f32x8::new(hits.t_max);
+                match &self.shapes[shape as usize] {
+                    Shape::Sphere(s) => {
+                        let (hit, t) = s.intersect_packet(packet, t_max());
+                        let t = t.to_array();
+                        for lane in lanes_of(hit & mask) {
+                            record(
+                                hits,
+                                lane,
+                                PrimHit {
+                                    t: t[lane],
+                                    uv: Vec2::ZERO,
+                                },
+                            );
+                        }
+                    }
+                    Shape::Rectangle(r) => {
+                        let (hit, t, [x, y]) = r.intersect_packet(packet, t_max());
+                        let (t, x, y) = (t.to_array(), x.to_array(), y.to_array());
+                        for lane in lanes_of(hit & mask) {
+                            let uv = Vec2::new(x[lane], y[lane]);
+                            record(hits, lane, PrimHit { t: t[lane], uv });
+                        }
+                    }
+                    other => {
+                        for lane in lanes_of(mask) {
+                            if let Some(hit) = other.intersect(&self.meshes, prim, &hits.ray(lane))
+                            {
+                                record(hits, lane, hit);
+                            }
+                        }
+                    }
+                }
+            }
+            Item::Instance(inst) => {
+                let placed = &self.instances[inst as usize];
+                let group: &Group = &self.groups[placed.group as usize];
+                for lane in lanes_of(mask) {
+                    let local = super::to_local_ray(&hits.ray(lane), &placed.to_world);
+                    if let Some(h) = self.closest_in_group(group, &local, Some(inst)) {
+                        hits.record(lane, Closest::Other(h), h.hit.t);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::Pcg32;
+    use crate::scene::tests::{mixed_scene, random_ray};
+
+    /// Rays with intervals that start late or end early, now and then.
+    fn random_rays(rng: &mut Pcg32) -> [Ray; PACKET_RAYS] {
+        std::array::from_fn(|_| {
+            let mut r = random_ray(rng);
+            if rng.next_f32() < 0.25 {
+                r.t_min = 4.0 * rng.next_f32();
+            }
+            if rng.next_f32() < 0.25 {
+                r.t_max = 8.0 * rng.next_f32();
+            }
+            r
+        })
+    }
+
+    /// The eight-lane sphere and rectangle tests give the single-ray
+    /// tests' hits bit for bit, BVH aside (its boxes would hide a test
+    /// that hits beyond a shape's bounds).
+    #[test]
+    fn packet_shape_tests_equal_single_ray_tests() {
+        let scene = mixed_scene();
+        let mut rng = Pcg32::new(5, 0);
+        let mut tested = 0;
+        for shape in &scene.shapes {
+            for _ in 0..4000 {
+                let rays = random_rays(&mut rng);
+                let packet = RayPacket::new(&rays);
+                let t_max = f32x8::new(rays.map(|r| r.t_max));
+                let lanes: [Option<PrimHit>; PACKET_RAYS] = match shape {
+                    Shape::Sphere(s) => {
+                        let (hit, t) = s.intersect_packet(&packet, t_max);
+                        let t = t.to_array();
+                        std::array::from_fn(|l| {
+                            (hit >> l & 1 != 0).then_some(PrimHit {
+                                t: t[l],
+                                uv: Vec2::ZERO,
+                            })
+                        })
+                    }
+                    Shape::Rectangle(r) => {
+                        let (hit, t, [x, y]) = r.intersect_packet(&packet, t_max);
+                        let (t, x, y) = (t.to_array(), x.to_array(), y.to_array());
+                        std::array::from_fn(|l| {
+                            let uv = Vec2::new(x[l], y[l]);
+                            (hit >> l & 1 != 0).then_some(PrimHit { t: t[l], uv })
+                        })
+                    }
+                    _ => continue,
+                };
+                for (ray, got) in rays.iter().zip(lanes) {
+                    let key = |h: Option<PrimHit>| {
+                        h.map(|h| (h.t.to_bits(), h.uv.to_array().map(f32::to_bits)))
+                    };
+                    let expected = shape.intersect(&scene.meshes, 0, ray);
+                    assert_eq!(key(got), key(expected), "{shape:?} {ray:?}");
+                    tested += usize::from(expected.is_some());
+                }
+            }
+        }
+        assert!(tested > 2000, "{tested} hits");
+    }
+
+    #[test]
+    fn packets_find_the_single_rays_hits() {
+        let scene = mixed_scene();
+        assert!(scene.groups[0].bvh.takes_packets());
+        let mut rng = Pcg32::new(3, 0);
+        let mut hit_shapes = std::collections::BTreeSet::new();
+        for _ in 0..3000 {
+            let rays = random_rays(&mut rng);
+            let active = rng.next_u32() & 0xff;
+            let hits = scene.closest_packet(&rays, active);
+            for (lane, (ray, hit)) in rays.iter().zip(hits).enumerate() {
+                let expected = (active >> lane & 1 != 0)
+                    .then(|| scene.closest(ray))
+                    .flatten();
+                let key = |h: Option<HitRecord>| {
+                    h.map(|h| {
+                        let uv = h.hit.uv.to_array().map(f32::to_bits);
+                        (h.shape, h.prim, h.instance, h.hit.t.to_bits(), uv)
+                    })
+                };
+                assert_eq!(key(hit), key(expected), "lane {lane} of {rays:?}");
+                hit_shapes.extend(hit.map(|h| h.shape));
+            }
+        }
+        // Every shape of the world and of the instanced group.
+        assert_eq!(hit_shapes.len(), scene.shapes.len(), "{hit_shapes:?}");
+    }
+}
