@@ -18,7 +18,7 @@
 use super::{Closest, Group, HitRecord, Item, Scene};
 use crate::accel::{PacketLanes, PACKET_RAYS};
 use crate::math::{Ray, RayPacket};
-use crate::shape::{PrimHit, Shape, ShapeModel, WatertightRay};
+use crate::shape::{PrimHit, ShapeModel, WatertightRay};
 use glam::Vec2;
 use wide::f32x8;
 
@@ -133,34 +133,19 @@ impl Scene {
                     };
                     hits.record(lane, Closest::Other(rec), hit.t);
                 };
-                let t_max = || f32x8::new(hits.t_max);
-                match &self.shapes[shape as usize] {
-                    Shape::Sphere(s) => {
-                        let (hit, t) = s.intersect_packet(packet, t_max());
-                        let t = t.to_array();
+                let shape_ref = &self.shapes[shape as usize];
+                match shape_ref.intersect_packet(packet, f32x8::new(hits.t_max)) {
+                    Some((hit, t, [u, v])) => {
+                        let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
                         for lane in lanes_of(hit & mask) {
-                            record(
-                                hits,
-                                lane,
-                                PrimHit {
-                                    t: t[lane],
-                                    uv: Vec2::ZERO,
-                                },
-                            );
-                        }
-                    }
-                    Shape::Rectangle(r) => {
-                        let (hit, t, [x, y]) = r.intersect_packet(packet, t_max());
-                        let (t, x, y) = (t.to_array(), x.to_array(), y.to_array());
-                        for lane in lanes_of(hit & mask) {
-                            let uv = Vec2::new(x[lane], y[lane]);
+                            let uv = Vec2::new(u[lane], v[lane]);
                             record(hits, lane, PrimHit { t: t[lane], uv });
                         }
                     }
-                    other => {
+                    None => {
                         for lane in lanes_of(mask) {
-                            if let Some(hit) = other.intersect(&self.meshes, prim, &hits.ray(lane))
-                            {
+                            let ray = hits.ray(lane);
+                            if let Some(hit) = shape_ref.intersect(&self.meshes, prim, &ray) {
                                 record(hits, lane, hit);
                             }
                         }
@@ -201,7 +186,7 @@ mod tests {
         })
     }
 
-    /// The eight-lane sphere and rectangle tests give the single-ray
+    /// The eight-lane sphere, rectangle and disk tests give the single-ray
     /// tests' hits bit for bit, BVH aside (its boxes would hide a test
     /// that hits beyond a shape's bounds).
     #[test]
@@ -209,32 +194,21 @@ mod tests {
         let scene = mixed_scene();
         let mut rng = Pcg32::new(5, 0);
         let mut tested = 0;
+        let mut kinds = std::collections::HashSet::new();
         for shape in &scene.shapes {
             for _ in 0..4000 {
                 let rays = random_rays(&mut rng);
                 let packet = RayPacket::new(&rays);
                 let t_max = f32x8::new(rays.map(|r| r.t_max));
-                let lanes: [Option<PrimHit>; PACKET_RAYS] = match shape {
-                    Shape::Sphere(s) => {
-                        let (hit, t) = s.intersect_packet(&packet, t_max);
-                        let t = t.to_array();
-                        std::array::from_fn(|l| {
-                            (hit >> l & 1 != 0).then_some(PrimHit {
-                                t: t[l],
-                                uv: Vec2::ZERO,
-                            })
-                        })
-                    }
-                    Shape::Rectangle(r) => {
-                        let (hit, t, [x, y]) = r.intersect_packet(&packet, t_max);
-                        let (t, x, y) = (t.to_array(), x.to_array(), y.to_array());
-                        std::array::from_fn(|l| {
-                            let uv = Vec2::new(x[l], y[l]);
-                            (hit >> l & 1 != 0).then_some(PrimHit { t: t[l], uv })
-                        })
-                    }
-                    _ => continue,
+                let Some((hit, t, [u, v])) = shape.intersect_packet(&packet, t_max) else {
+                    continue;
                 };
+                let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
+                let lanes: [Option<PrimHit>; PACKET_RAYS] = std::array::from_fn(|l| {
+                    let uv = Vec2::new(u[l], v[l]);
+                    (hit >> l & 1 != 0).then_some(PrimHit { t: t[l], uv })
+                });
+                kinds.insert(std::mem::discriminant(shape));
                 for (ray, got) in rays.iter().zip(lanes) {
                     let key = |h: Option<PrimHit>| {
                         h.map(|h| (h.t.to_bits(), h.uv.to_array().map(f32::to_bits)))
@@ -246,6 +220,8 @@ mod tests {
             }
         }
         assert!(tested > 2000, "{tested} hits");
+        // Spheres, rectangles and disks.
+        assert_eq!(kinds.len(), 3);
     }
 
     #[test]

@@ -14,15 +14,17 @@
 //! object space and hence in world space.
 
 use super::{
-    azimuth, azimuth_sin_cos, intersect_local_plane, make_interaction, unit_square_bounds,
-    world_normal, PositionSample, PrimHit, ShapeModel, TriangleMesh,
+    azimuth, azimuth_sin_cos, intersect_local_plane, intersect_local_plane_packet,
+    make_interaction, unit_square_bounds, world_normal, PositionSample, PrimHit, ShapeModel,
+    TriangleMesh,
 };
 use crate::interaction::SurfaceInteraction;
-use crate::math::{Bounds3, Ray, Transform};
+use crate::math::{Bounds3, Ray, RayPacket, Transform};
 use crate::params::{ParamError, Params};
 use crate::sampling::square_to_uniform_disk_concentric;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
+use wide::{f32x8, CmpLe};
 
 /// The transformed unit disk.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,6 +48,22 @@ impl Disk {
 impl Disk {
     fn normal(&self) -> Vec3 {
         world_normal(&self.to_world, Vec3::Z, self.flip_normals)
+    }
+}
+
+impl Disk {
+    /// [`ShapeModel::intersect`] for the eight rays of `rays` at once (see
+    /// [`super::Rectangle::intersect_packet`]), bit for bit the
+    /// single-ray test's hits.
+    #[inline]
+    pub(crate) fn intersect_packet(
+        &self,
+        rays: &RayPacket,
+        t_max: f32x8,
+    ) -> (u32, f32x8, [f32x8; 2]) {
+        let (hit, t, [x, y]) = intersect_local_plane_packet(&self.to_world, rays, t_max);
+        let inside = (x * x + y * y).cmp_le(f32x8::ONE);
+        (hit & inside.move_mask() as u32, t, [x, y])
     }
 }
 

@@ -28,9 +28,10 @@ pub use sphere::Sphere;
 pub use triangle::{TrianglePackets, WatertightRay, PACKET};
 
 use crate::interaction::SurfaceInteraction;
-use crate::math::{Bounds3, Ray, Transform};
+use crate::math::{Bounds3, Ray, RayPacket, Transform};
 use crate::params::{plugin_of, ParamError, Params};
 use glam::{Vec2, Vec3};
+use wide::{f32x8, CmpGt, CmpLt};
 
 /// What a shape plugin builds: an analytic shape, or a triangle mesh for
 /// the scene to add to its meshes (and refer to by index).
@@ -225,6 +226,28 @@ pub enum Shape {
 }
 
 impl Shape {
+    /// [`ShapeModel::intersect`] for the eight rays of `rays` at once, each
+    /// within its lane of `t_max`, for the shapes that have such a test
+    /// (spheres, rectangles, disks; `None` for the others): the lanes
+    /// that hit, their distances and their [`PrimHit::uv`], the
+    /// single-ray test's values bit for bit.
+    #[inline]
+    pub(crate) fn intersect_packet(
+        &self,
+        rays: &RayPacket,
+        t_max: f32x8,
+    ) -> Option<(u32, f32x8, [f32x8; 2])> {
+        match self {
+            Shape::Sphere(s) => {
+                let (hit, t) = s.intersect_packet(rays, t_max);
+                Some((hit, t, [f32x8::ZERO; 2]))
+            }
+            Shape::Rectangle(r) => Some(r.intersect_packet(rays, t_max)),
+            Shape::Disk(d) => Some(d.intersect_packet(rays, t_max)),
+            Shape::Mesh(_) | Shape::Cylinder(_) => None,
+        }
+    }
+
     /// The shape as an instance placed by `t` shows it, in world space
     /// (for sampling instanced area lights); a mesh is copied into
     /// `meshes`. `None` for a sphere that `t` would make an ellipsoid.
@@ -360,6 +383,34 @@ pub(crate) fn intersect_local_plane(to_world: &Transform, ray: &Ray) -> Option<(
     let d = to_world.inv.transform_vector3(ray.d);
     let t = -o.z / d.z;
     (t > ray.t_min && t < ray.t_max).then(|| (t, Vec2::new(o.x + t * d.x, o.y + t * d.y)))
+}
+
+/// [`intersect_local_plane`] for the eight rays of `rays`, each within its
+/// lane of `t_max`: the lanes that meet the plane in their interval, the
+/// distances and the object-space x and y, the single-ray values bit for
+/// bit (the same operations in the same order, lane by lane).
+#[inline(always)]
+pub(crate) fn intersect_local_plane_packet(
+    to_world: &Transform,
+    rays: &RayPacket,
+    t_max: f32x8,
+) -> (u32, f32x8, [f32x8; 2]) {
+    let m = &to_world.inv;
+    let [cx, cy, cz] = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
+    let linear = |v: &[f32x8; 3], i: usize| {
+        let s = |c: glam::Vec3A| f32x8::splat(c[i]);
+        s(cx) * v[0] + s(cy) * v[1] + s(cz) * v[2]
+    };
+    let o: [f32x8; 3] =
+        std::array::from_fn(|i| linear(&rays.o, i) + f32x8::splat(m.translation[i]));
+    let d: [f32x8; 3] = std::array::from_fn(|i| linear(&rays.d, i));
+    let t = -o[2] / d[2];
+    let hit = t.cmp_gt(rays.t_min) & t.cmp_lt(t_max);
+    (
+        hit.move_mask() as u32,
+        t,
+        [o[0] + t * d[0], o[1] + t * d[1]],
+    )
 }
 
 /// The world normal of object-space `n` under `to_world`, unit length,

@@ -21,16 +21,16 @@
 //! rectangles are sampled by area.
 
 use super::{
-    area_to_solid_angle, intersect_local_plane, make_interaction, unit_square_bounds, world_normal,
-    PositionSample, PrimHit, ShapeDirectionSample, ShapeModel, TriangleMesh,
-    NEAR_AREA_PER_DISTANCE2,
+    area_to_solid_angle, intersect_local_plane, intersect_local_plane_packet, make_interaction,
+    unit_square_bounds, world_normal, PositionSample, PrimHit, ShapeDirectionSample, ShapeModel,
+    TriangleMesh, NEAR_AREA_PER_DISTANCE2,
 };
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Ray, RayPacket, Transform};
 use crate::params::{ParamError, Params};
 use crate::sampling::{spherical_rectangle_pdf, SphericalRectangle};
 use glam::{Vec2, Vec3};
-use wide::{f32x8, CmpGt, CmpLe, CmpLt};
+use wide::{f32x8, CmpLe};
 
 /// A parallelogram: the transformed unit square.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -89,21 +89,10 @@ impl Rectangle {
         rays: &RayPacket,
         t_max: f32x8,
     ) -> (u32, f32x8, [f32x8; 2]) {
-        let m = &self.to_world.inv;
-        let [cx, cy, cz] = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
-        let linear = |v: &[f32x8; 3], i: usize| {
-            let s = |c: glam::Vec3A| f32x8::splat(c[i]);
-            s(cx) * v[0] + s(cy) * v[1] + s(cz) * v[2]
-        };
-        let o =
-            std::array::from_fn::<_, 3, _>(|i| linear(&rays.o, i) + f32x8::splat(m.translation[i]));
-        let d = std::array::from_fn::<_, 3, _>(|i| linear(&rays.d, i));
-        let t = -o[2] / d[2];
-        let (x, y) = (o[0] + t * d[0], o[1] + t * d[1]);
+        let (hit, t, [x, y]) = intersect_local_plane_packet(&self.to_world, rays, t_max);
         let one = f32x8::ONE;
-        let hit =
-            t.cmp_gt(rays.t_min) & t.cmp_lt(t_max) & x.abs().cmp_le(one) & y.abs().cmp_le(one);
-        (hit.move_mask() as u32, t, [x, y])
+        let inside = x.abs().cmp_le(one) & y.abs().cmp_le(one);
+        (hit & inside.move_mask() as u32, t, [x, y])
     }
 }
 
