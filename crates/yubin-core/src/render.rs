@@ -455,8 +455,7 @@ impl TileJob<'_> {
             halves: vec![Halves::default(); tile.width() * tile.height()],
             tile,
         };
-        let mut packet = Packet::default();
-        packet.reserve();
+        let mut batch = Batch::with_capacity();
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let pixel = y as usize * film.crop_size[0] as usize + x as usize;
@@ -464,14 +463,14 @@ impl TileJob<'_> {
                     continue;
                 }
                 for index in self.samples.clone() {
-                    packet.push(self.camera_sample(x, y, index));
-                    if packet.rays.len() == BATCH {
-                        self.trace(&mut packet, &mut out);
+                    batch.push(self.camera_sample(x, y, index));
+                    if batch.rays.len() == BATCH {
+                        self.trace(&mut batch, &mut out);
                     }
                 }
             }
         }
-        self.trace(&mut packet, &mut out);
+        self.trace(&mut batch, &mut out);
         TileResult {
             tile,
             buffer: out.buffer,
@@ -506,14 +505,14 @@ impl TileJob<'_> {
         }
     }
 
-    /// Traces the samples waiting in `packet` and splats them in order.
-    fn trace(&self, packet: &mut Packet, out: &mut TileOutput) {
-        let n = packet.rays.len();
+    /// Traces the samples waiting in `batch` and splats them in order.
+    fn trace(&self, batch: &mut Batch, out: &mut TileOutput) {
+        let n = batch.rays.len();
         let values = &mut out.values[..n * self.channels];
         self.integrator
-            .sample_packet(self.scene, &packet.rays, &mut packet.streams, values);
+            .sample_packet(self.scene, &batch.rays, &mut batch.streams, values);
         for (&(x, y, index, offset), values) in
-            packet.spots.iter().zip(values.chunks_exact(self.channels))
+            batch.spots.iter().zip(values.chunks_exact(self.channels))
         {
             if values.iter().all(|v| v.is_finite()) {
                 let tile = out.tile;
@@ -526,7 +525,7 @@ impl TileJob<'_> {
                 out.dropped += 1;
             }
         }
-        packet.clear();
+        batch.clear();
     }
 }
 
@@ -546,19 +545,20 @@ struct CameraSample {
 const BATCH: usize = 256;
 
 /// Camera samples waiting to be traced together.
-#[derive(Default)]
-struct Packet {
+struct Batch {
     rays: Vec<Option<Ray>>,
     streams: Vec<SampleStream>,
     /// Pixel, sample index and film offset of each.
     spots: Vec<(u32, u32, u32, Vec2)>,
 }
 
-impl Packet {
-    fn reserve(&mut self) {
-        self.rays.reserve(BATCH);
-        self.streams.reserve(BATCH);
-        self.spots.reserve(BATCH);
+impl Batch {
+    fn with_capacity() -> Self {
+        Self {
+            rays: Vec::with_capacity(BATCH),
+            streams: Vec::with_capacity(BATCH),
+            spots: Vec::with_capacity(BATCH),
+        }
     }
 
     fn push(&mut self, s: CameraSample) {
@@ -578,7 +578,7 @@ impl Packet {
 struct TileOutput {
     tile: Tile,
     buffer: TileBuffer,
-    /// Room for one packet's values.
+    /// Room for one batch's values.
     values: Vec<f32>,
     dropped: u64,
     halves: Vec<Halves>,

@@ -674,9 +674,9 @@ impl Bvh {
         self.nodes.len() <= PACKET_NODES
     }
 
-    /// Calls `leaf(start, count, lanes, t_max)` for every leaf whose box
+    /// Calls `leaf(start, count, lanes)` for every leaf whose box
     /// some lanes of `active` meet within their intervals (`lanes`: those
-    /// lanes), depth first; `leaf` returns the lanes' new `t_max` (their
+    /// lanes), depth first; `leaf` returns all lanes' `t_max` (their
     /// closest hits so far). Only for trees that [`Bvh::takes_packets`].
     #[inline]
     pub(crate) fn packet_leaves(
@@ -684,7 +684,7 @@ impl Bvh {
         lanes: &PacketLanes,
         active: u32,
         mut t_max: f32x8,
-        mut leaf: impl FnMut(usize, usize, u32, f32x8) -> f32x8,
+        mut leaf: impl FnMut(usize, usize, u32) -> f32x8,
     ) {
         debug_assert!(self.takes_packets());
         if self.root == EMPTY || active == 0 {
@@ -697,7 +697,7 @@ impl Bvh {
         while let Some((code, mask)) = stack.pop() {
             if code & LEAF_BIT != 0 {
                 let (start, count) = leaf_span(code);
-                t_max = leaf(start, count, mask, t_max);
+                t_max = leaf(start, count, mask);
                 continue;
             }
             let node = &self.nodes[code as usize];

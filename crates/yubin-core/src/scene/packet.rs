@@ -83,7 +83,7 @@ impl Scene {
         let mut sheared: [Option<WatertightRay>; PACKET_RAYS] = [None; PACKET_RAYS];
         let t_max = f32x8::new(hits.t_max);
         g.bvh
-            .packet_leaves(&lanes, active, t_max, |start, count, mask, _| {
+            .packet_leaves(&lanes, active, t_max, |start, count, mask| {
                 if g.tris.has_triangles(start) {
                     for lane in lanes_of(mask) {
                         let r = &rays[lane];
