@@ -100,14 +100,11 @@ pub struct RayPacket {
 
 impl RayPacket {
     /// The packet of `rays`.
-    #[inline]
+    #[inline(always)]
     pub fn new(rays: &[Ray; 8]) -> Self {
-        let lanes = |v: fn(&Ray) -> Vec3| {
-            std::array::from_fn(|a| f32x8::new(std::array::from_fn(|l| v(&rays[l])[a])))
-        };
         Self {
-            o: lanes(|r| r.o),
-            d: lanes(|r| r.d),
+            o: std::array::from_fn(|a| f32x8::new(std::array::from_fn(|l| rays[l].o[a]))),
+            d: std::array::from_fn(|a| f32x8::new(std::array::from_fn(|l| rays[l].d[a]))),
             t_min: f32x8::new(rays.map(|r| r.t_min)),
         }
     }

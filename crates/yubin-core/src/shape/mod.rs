@@ -231,7 +231,7 @@ impl Shape {
     /// (spheres, rectangles, disks; `None` for the others): the lanes
     /// that hit, their distances and their [`PrimHit::uv`], the
     /// single-ray test's values bit for bit.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn intersect_packet(
         &self,
         rays: &RayPacket,
