@@ -110,17 +110,24 @@ impl TexImage {
     /// The texel at column `x`, row `y` (in range), as RGBA: a one-channel
     /// image fills RGB with its value; missing alpha is 1. Encoded colour
     /// values are sRGB-decoded when `decode`.
-    #[inline]
+    #[inline(always)]
     pub fn texel(&self, x: u32, y: u32, decode: bool) -> Vec4 {
         let c = self.channels as usize;
         let i = (y as usize * self.width as usize + x as usize) * c;
         // Linear float RGB(A), what HDR maps hold: read straight through,
-        // without a per-channel match on the storage.
+        // inline, without a per-channel match on the storage.
         if let (ImageData::F32(d), false, 3 | 4) = (&self.data, decode && self.encoded, c) {
             let a = if c == 4 { d[i + 3] } else { 1.0 };
             return Vec4::new(d[i], d[i + 1], d[i + 2], a);
         }
-        match c {
+        self.converted_texel(i, decode)
+    }
+
+    /// [`TexImage::texel`] of any other storage, from its first value's
+    /// index `i`.
+    #[inline(never)]
+    fn converted_texel(&self, i: usize, decode: bool) -> Vec4 {
+        match self.channels {
             1 => {
                 let v = self.value(i, decode);
                 Vec4::new(v, v, v, 1.0)
