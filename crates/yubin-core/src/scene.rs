@@ -338,6 +338,9 @@ pub struct Scene {
     /// (shape in a group, its world copy in one instance), for each
     /// emitting shape of each instance (`Instance::placed_emitters`).
     placed_emitters: Vec<(u32, u32)>,
+    /// [`BsdfModel::flags`] of each BSDF of [`Materials::bsdfs`], asked
+    /// at every bounce: taken once (nested BSDFs ask theirs recursively).
+    bsdf_flags: Vec<crate::bsdf::BsdfFlags>,
     /// Some shape's BSDF lets light through (`null`, `mask`): shadow rays
     /// may have to look past their first hit.
     has_pass_through: bool,
@@ -752,6 +755,12 @@ impl Scene {
     #[inline]
     pub fn bsdf_of(&self, shape: u32) -> &Bsdf {
         &self.materials.bsdfs[self.shape_info[shape as usize].bsdf as usize]
+    }
+
+    /// The flags of a shape's BSDF ([`BsdfModel::flags`]).
+    #[inline]
+    pub fn bsdf_flags_of(&self, shape: u32) -> crate::bsdf::BsdfFlags {
+        self.bsdf_flags[self.shape_info[shape as usize].bsdf as usize]
     }
 
     /// The emitter of a shape, if it is an area light.
@@ -1414,11 +1423,13 @@ impl SceneBuilder {
             .filter(|(_, e)| e.is_environment())
             .map(|(i, _)| i as u32)
             .collect();
-        let has_pass_through = self.shape_info.iter().any(|info| {
-            let b = &self.materials.bsdfs[info.bsdf as usize];
-            b.flags(&self.materials)
-                .intersects(crate::bsdf::BsdfFlags::NULL)
-        });
+        let bsdf_flags: Vec<_> = (self.materials.bsdfs.iter())
+            .map(|b| b.flags(&self.materials))
+            .collect();
+        let has_pass_through = self
+            .shape_info
+            .iter()
+            .any(|info| bsdf_flags[info.bsdf as usize].intersects(crate::bsdf::BsdfFlags::NULL));
         let has_null_transmission = self.shape_info.iter().any(|info| {
             self.materials.bsdfs[info.bsdf as usize].lets_light_through(&self.materials)
         });
@@ -1461,6 +1472,7 @@ impl SceneBuilder {
             groups,
             instances: self.instances,
             placed_emitters,
+            bsdf_flags,
         })
     }
 }

@@ -82,7 +82,7 @@ impl Integrator for DirectIntegrator {
         let bsdf = scene.bsdf_of(si.shape);
         let wo = si.to_local(si.wo);
         let (ne, nb) = (self.emitter_samples as f32, self.bsdf_samples as f32);
-        if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) && self.emitter_samples > 0 {
+        if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) && self.emitter_samples > 0 {
             for _ in 0..self.emitter_samples {
                 // The ratio ne/nb turns the count-weighted power heuristic
                 // into the one-sample form sample_light computes.

@@ -94,7 +94,7 @@ impl DenoiserGuides {
             };
             let depth = *depth.get_or_insert((si.t - camera_ray.t_min) * camera_ray.d.length());
             let bsdf = scene.bsdf_of(si.shape);
-            let flags = bsdf.flags(&scene.materials);
+            let flags = scene.bsdf_flags_of(si.shape);
             if flags.intersects(BsdfFlags::SMOOTH) {
                 return FirstHit {
                     albedo: tint * aov::albedo(scene, &si),

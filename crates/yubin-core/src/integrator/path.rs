@@ -213,7 +213,7 @@ impl PathIntegrator {
         }
         let bsdf = scene.bsdf_of(si.shape);
         let wo = si.to_local(si.wo);
-        if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) {
+        if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) {
             // The light sample's path may cross as many pass-through
             // surfaces as the BSDF sample's path could: each crossing
             // counts as a bounce (as in Mitsuba), and the last one must

@@ -259,7 +259,7 @@ impl ParticleTracer {
             let si = scene.interaction_at(&ray, hit);
             let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
-            if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) {
+            if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) {
                 let u_lens = lens_sample(scene, sampler);
                 self.connect_to_camera(scene, &si, bsdf, wo, beta, depth, u_lens, out);
             }

@@ -527,7 +527,8 @@ impl Integrator for VolPathIntegrator {
             }
             let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
-            if bsdf.flags(&scene.materials).intersects(BsdfFlags::SMOOTH) && depth + 1 < max_depth {
+            if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) && depth + 1 < max_depth
+            {
                 l += self.light_from_surface(scene, &path, &si, bsdf, wo, medium, sampler);
             }
             let u1 = sampler.next_1d();
