@@ -105,7 +105,7 @@ impl Integrator for PathIntegrator {
         while lanes.alive != 0 {
             let next_rays = lanes.paths.each_ref().map(|p| p.ray);
             let hits = scene.closest_packet(&next_rays, lanes.alive);
-            for (lane, hit) in hits.into_iter().enumerate() {
+            for (lane, &hit) in hits.iter().enumerate() {
                 if lanes.alive >> lane & 1 == 0 {
                     continue;
                 }
