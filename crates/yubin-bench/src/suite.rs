@@ -5,6 +5,7 @@
 //! cargo build --release -p yubin -p yubin-bench
 //! ./target/release/yubin-bench suite [--spp 64] [--ref-spp 1024] [--reps 3]
 //!     [--scenes cornell,glass-metal,...] [--variants llvm_ad_rgb,scalar_rgb]
+//!     [-D name=value]...
 //! ```
 //!
 //! Each scene (files in `scenes/` and `scenes/suite/`, written for both
@@ -24,6 +25,11 @@
 //! error, the load times, and the peak resident memory of each process
 //! (GNU time's maximum RSS; Mitsuba's includes its Python interpreter).
 //! The last row is the geometric mean of the efficiency ratios.
+//!
+//! `-D name=value` sets a scene parameter in both renderers (and in the
+//! reference, cached per setting): `-D max_depth=2` measures paths of one
+//! bounce, which with the full depth splits the cost between the first
+//! hit and the later bounces.
 
 use crate::cornell::{rel_mse_rgb, repo_root};
 use anyhow::{bail, Context, Result};
@@ -57,6 +63,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let (mut spp, mut ref_spp, mut reps) = (64u32, 1024u32, 3usize);
     let mut names: Vec<String> = SCENES.iter().map(|(n, _)| n.to_string()).collect();
     let mut variants = vec!["llvm_ad_rgb".to_string()];
+    let mut defines = Vec::new();
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().context("option needs a value");
@@ -66,6 +73,13 @@ pub fn run(args: &[String]) -> Result<()> {
             "--reps" => reps = value()?.parse()?,
             "--scenes" => names = value()?.split(',').map(str::to_string).collect(),
             "--variants" => variants = value()?.split(',').map(str::to_string).collect(),
+            "-D" | "--define" => {
+                let define = value()?;
+                if !define.contains('=') {
+                    bail!("-D takes name=value, not {define}");
+                }
+                defines.push(define.clone());
+            }
             other => bail!("unknown option {other}"),
         }
     }
@@ -78,10 +92,13 @@ pub fn run(args: &[String]) -> Result<()> {
     let out = root.join("out/bench/suite");
     std::fs::create_dir_all(&out)?;
     println!(
-        "{} at {spp} spp, reference {ref_spp} spp (yubin), median of {reps}; CPU: {}\n",
+        "{} at {spp} spp{}, reference {ref_spp} spp (yubin), median of {reps}; CPU: {}\n",
         names.join(", "),
+        defines.iter().map(|d| format!(", {d}")).collect::<String>(),
         cpu_model()
     );
+    // The reference of each setting is its own file.
+    let setting: String = defines.iter().map(|d| format!("-{d}")).collect();
     let mut header = "| scene | yubin s (load) | relMSE | peak MB |".to_string();
     let mut rule = "|---|---:|---:|---:|".to_string();
     for v in &variants {
@@ -98,8 +115,9 @@ pub fn run(args: &[String]) -> Result<()> {
         let reference = reference(
             &yubin,
             &scene,
-            &out.join(format!("{name}-ref-{ref_spp}.exr")),
+            &out.join(format!("{name}-ref-{ref_spp}{setting}.exr")),
             ref_spp,
+            &defines,
         )?;
         let mut ours = Vec::new();
         let mut theirs = vec![Vec::new(); variants.len()];
@@ -109,12 +127,18 @@ pub fn run(args: &[String]) -> Result<()> {
         for rep in 0..reps {
             let seed = rep as u32 + 1;
             let path = out.join(format!("{name}-yubin.exr"));
-            ours.push(measure_yubin(&yubin, &scene, spp, seed, &path, &reference)?);
+            let run = RunSpec {
+                scene: &scene,
+                spp,
+                seed,
+                defines: &defines,
+                out: &path,
+            };
+            ours.push(measure_yubin(&yubin, &run, &reference)?);
             for (v, variant) in variants.iter().enumerate() {
                 let path = out.join(format!("{name}-{variant}.exr"));
-                theirs[v].push(measure_mitsuba(
-                    variant, &scene, spp, seed, &path, &reference,
-                )?);
+                let run = RunSpec { out: &path, ..run };
+                theirs[v].push(measure_mitsuba(variant, &run, &reference)?);
             }
         }
         let y = median_run(&ours);
@@ -220,32 +244,40 @@ fn number_after(text: &str, key: &str) -> Result<f64> {
     Ok(rest[..end].parse()?)
 }
 
-fn render_args(scene: &Path, spp: u32, seed: u32, out: &Path) -> Vec<String> {
-    vec![
-        "render".into(),
-        scene.to_string_lossy().into_owned(),
-        "--spp".into(),
-        spp.to_string(),
-        "--seed".into(),
-        seed.to_string(),
-        "-o".into(),
-        out.to_string_lossy().into_owned(),
-    ]
-}
-
-fn measure_yubin(
-    bin: &Path,
-    scene: &Path,
+/// One render: scene, samples, seed, scene parameters and output file.
+#[derive(Clone, Copy)]
+struct RunSpec<'a> {
+    scene: &'a Path,
     spp: u32,
     seed: u32,
-    out: &Path,
-    reference: &Image,
-) -> Result<Run> {
-    let (_, stderr, peak_mb) = timed(bin, &render_args(scene, spp, seed, out))?;
+    defines: &'a [String],
+    out: &'a Path,
+}
+
+/// The command line both `yubin` and `scripts/mitsuba-ref` take.
+fn render_args(run: &RunSpec) -> Vec<String> {
+    let mut args = vec![
+        "render".into(),
+        run.scene.to_string_lossy().into_owned(),
+        "--spp".into(),
+        run.spp.to_string(),
+        "--seed".into(),
+        run.seed.to_string(),
+        "-o".into(),
+        run.out.to_string_lossy().into_owned(),
+    ];
+    for d in run.defines {
+        args.extend(["-D".into(), d.clone()]);
+    }
+    args
+}
+
+fn measure_yubin(bin: &Path, run: &RunSpec, reference: &Image) -> Result<Run> {
+    let (_, stderr, peak_mb) = timed(bin, &render_args(run))?;
     // "OUT: WxH, N spp in R s (load L s, ..."
     let render = number_after(&stderr, " spp in ")?;
     let load = number_after(&stderr, "(load ")?;
-    finish_run(load, render, peak_mb, out, reference)
+    finish_run(load, render, peak_mb, run.out, reference)
 }
 
 /// The run's measurements, its image compared with the reference.
@@ -259,27 +291,27 @@ fn finish_run(load: f64, render: f64, peak_mb: f64, out: &Path, reference: &Imag
     })
 }
 
-fn measure_mitsuba(
-    variant: &str,
-    scene: &Path,
-    spp: u32,
-    seed: u32,
-    out: &Path,
-    reference: &Image,
-) -> Result<Run> {
-    let mut args = render_args(scene, spp, seed, out);
+fn measure_mitsuba(variant: &str, run: &RunSpec, reference: &Image) -> Result<Run> {
+    let mut args = render_args(run);
     args.extend(["--variant".into(), variant.into()]);
     let (stdout, _, peak_mb) = timed(&repo_root().join("scripts/mitsuba-ref"), &args)?;
     let load = number_after(&stdout, "load time:")?;
     let render = number_after(&stdout, "render time:")?;
-    finish_run(load, render, peak_mb, out, reference)
+    finish_run(load, render, peak_mb, run.out, reference)
 }
 
 /// The cached reference, rendered by yubin at `spp` when absent.
-fn reference(bin: &Path, scene: &Path, path: &Path, spp: u32) -> Result<Image> {
+fn reference(bin: &Path, scene: &Path, path: &Path, spp: u32, defines: &[String]) -> Result<Image> {
     if !path.exists() {
         eprintln!("rendering the reference {} ...", path.display());
-        timed(bin, &render_args(scene, spp, 0, path))?;
+        let run = RunSpec {
+            scene,
+            spp,
+            seed: 0,
+            defines,
+            out: path,
+        };
+        timed(bin, &render_args(&run))?;
     }
     Ok(read_image(path, ColorHandling::Raw)?)
 }
