@@ -81,7 +81,8 @@ impl Distribution1D {
 
     /// The guide table: for u = k / G, k = 0..=G, the step found by a
     /// search of the whole CDF (G a power of two so that k / G and u · G
-    /// are exact).
+    /// are exact, as they are in f32 up to 2²⁴ steps: an environment map
+    /// 16 million texels wide).
     fn guide_table(&self) -> Vec<u32> {
         let n = self.func.len();
         let g = n.next_power_of_two();
