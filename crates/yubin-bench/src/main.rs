@@ -49,7 +49,7 @@ const USAGE: &str = "usage:
   yubin-bench smoke-vol PATH [--res X,Y,Z]
   yubin-bench media [--spp N] [--ref-spp N] [--reps N]
   yubin-bench adaptive [--ref-spp N] [--max-spp N]
-  yubin-bench suite [--spp N] [--ref-spp N] [--reps N] [--scenes a,b] [--variants v,w]
+  yubin-bench suite [--spp N] [--ref-spp N] [--reps N] [--scenes a,b] [--variants v,w] [-D name=value]...
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
                    [--min-passes N] [--max-passes N] [--out FILE.md]
