@@ -511,18 +511,36 @@ impl TileJob<'_> {
         let values = &mut out.values[..n * self.channels];
         self.integrator
             .sample_packet(self.scene, &batch.rays, &mut batch.streams, values);
-        for (&(x, y, index, offset), values) in
-            batch.spots.iter().zip(values.chunks_exact(self.channels))
-        {
-            if values.iter().all(|v| v.is_finite()) {
+        // RGB samples' footprints are weighed eight at a time.
+        let by_eight = self.channels == 3 && !self.filter.is_box();
+        for (spots, values) in batch.spots.chunks(8).zip(values.chunks(8 * self.channels)) {
+            let film_pos =
+                |&(x, y, _, offset): &(u32, u32, u32, Vec2)| Vec2::new(x as f32, y as f32) + offset;
+            let footprints = by_eight.then(|| {
+                let pos: arrayvec::ArrayVec<Vec2, 8> = spots.iter().map(film_pos).collect();
+                out.buffer.footprints(self.filter, &pos)
+            });
+            for (j, (spot, values)) in spots
+                .iter()
+                .zip(values.chunks_exact(self.channels))
+                .enumerate()
+            {
+                if !values.iter().all(|v| v.is_finite()) {
+                    out.dropped += 1;
+                    continue;
+                }
+                match &footprints {
+                    Some(fp) if fp.fast >> j & 1 != 0 => {
+                        out.buffer
+                            .splat_footprint(fp, j, [values[0], values[1], values[2]]);
+                    }
+                    _ => out.buffer.splat(self.filter, film_pos(spot), values),
+                }
+                let (x, y, index, _) = *spot;
                 let tile = out.tile;
-                out.buffer
-                    .splat(self.filter, Vec2::new(x as f32, y as f32) + offset, values);
                 let i = (y - tile.y0) as usize * tile.width() + (x - tile.x0) as usize;
                 let lum = crate::spectrum::luminance(Rgb::from_slice(&values[..3]));
                 out.halves[i].add(index, lum);
-            } else {
-                out.dropped += 1;
             }
         }
         batch.clear();

@@ -12,6 +12,7 @@ mod hdrfilm;
 use crate::filter::{Filter, FilterTable};
 use crate::params::{plugin_of, ParamError, Params};
 use glam::{Vec2, Vec4};
+use wide::{f32x8, i32x8, CmpGt, CmpLt};
 
 /// Builds a film plugin from its parameters.
 pub type FilmFromParams = fn(&mut dyn Params) -> Result<Film, ParamError>;
@@ -93,6 +94,42 @@ fn floor_i32(v: f32) -> i32 {
     t - i32::from((t as f32) > v)
 }
 
+/// Along one axis, for eight sample coordinates `p` (pixels): the first
+/// and last pixel a filter reaches (as [`ceil_i32`] and [`floor_i32`]
+/// give them) and the weights of its first [`BATCH_COLUMNS`] pixels
+/// (`[k][lane]`), each pixel's offset formed as [`TileBuffer::splat`]
+/// forms it.
+fn footprint_axis(
+    filter: &FilterTable,
+    p: f32x8,
+) -> ([i32; 8], [i32; 8], [[f32; 8]; BATCH_COLUMNS]) {
+    let (r, half) = (f32x8::splat(filter.radius()), f32x8::splat(0.5));
+    let lo = ceil_i32x8(p - r - half);
+    let hi = floor_i32x8(p + r - half);
+    let mut w = [[0.0; 8]; BATCH_COLUMNS];
+    for (k, w) in w.iter_mut().enumerate() {
+        let pixel = f32x8::from_i32x8(lo + i32x8::splat(k as i32));
+        *w = filter.eval_8(pixel + half - p).to_array();
+    }
+    (lo.to_array(), hi.to_array(), w)
+}
+
+/// [`floor_i32`] of eight values (`wide`'s `floor` calls libm lane by
+/// lane on baseline x86-64).
+#[inline]
+fn floor_i32x8(v: f32x8) -> i32x8 {
+    let t = v.fast_trunc_int();
+    // A mask lane is −1 where the truncation rounded up.
+    t + bytemuck::cast::<f32x8, i32x8>(f32x8::from_i32x8(t).cmp_gt(v))
+}
+
+/// [`ceil_i32`] of eight values.
+#[inline]
+fn ceil_i32x8(v: f32x8) -> i32x8 {
+    let t = v.fast_trunc_int();
+    t - bytemuck::cast::<f32x8, i32x8>(f32x8::from_i32x8(t).cmp_lt(v))
+}
+
 /// ⌈v⌉ for |v| < 2³¹, as [`floor_i32`].
 #[inline]
 fn ceil_i32(v: f32) -> i32 {
@@ -103,6 +140,28 @@ fn ceil_i32(v: f32) -> i32 {
 /// The widest footprint (pixels) that [`TileBuffer::splat`] takes on its
 /// fast path: every filter up to a radius of 3.5 pixels.
 const FIXED_COLUMNS: usize = 8;
+
+/// The widest and tallest footprint [`TileBuffer::footprints`] weighs:
+/// a tent's (2 pixels) and a Gaussian's of radius 2 (4).
+const BATCH_COLUMNS: usize = 4;
+
+/// The footprints of up to eight RGB samples in a [`TileBuffer`], their
+/// filter weights computed for the eight at once
+/// ([`TileBuffer::footprints`]), to be added one sample after the other
+/// ([`TileBuffer::splat_footprint`]).
+#[derive(Clone, Debug)]
+pub struct Footprints {
+    /// The samples whose footprint lies in the buffer and is at most
+    /// [`BATCH_COLUMNS`] wide and tall (the others go through
+    /// [`TileBuffer::splat`]).
+    pub fast: u32,
+    /// Per sample: its first pixel in the buffer and its columns and rows.
+    origin: [[usize; 2]; 8],
+    size: [[usize; 2]; 8],
+    /// `wx[k][j]`: the weight of sample `j`'s column `k`; `wy` the rows'.
+    wx: [[f32; 8]; BATCH_COLUMNS],
+    wy: [[f32; 8]; BATCH_COLUMNS],
+}
 
 /// A sample's footprint in a [`TileBuffer`]: its first pixel and its size.
 struct Footprint {
@@ -203,6 +262,70 @@ impl TileBuffer {
                     *acc += w * v;
                 }
                 cell[N] += w;
+            }
+        }
+    }
+
+    /// The footprints of the RGB samples at crop-window positions `pos` (at
+    /// most eight) and their filter weights, eight samples per operation:
+    /// the offsets, floors and ceilings and table lookups of
+    /// [`TileBuffer::splat`], lane by lane, bit for bit.
+    pub fn footprints(&self, filter: &FilterTable, pos: &[Vec2]) -> Footprints {
+        debug_assert!(pos.len() <= 8 && self.channels == 3 && !filter.is_box());
+        let (mut xs, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
+        for ((x, y), p) in xs.iter_mut().zip(&mut ys).zip(pos) {
+            (*x, *y) = (p.x, p.y);
+        }
+        let (x_lo, x_hi, wx) = footprint_axis(filter, f32x8::new(xs));
+        let (y_lo, y_hi, wy) = footprint_axis(filter, f32x8::new(ys));
+        let mut fp = Footprints {
+            fast: 0,
+            origin: [[0; 2]; 8],
+            size: [[0; 2]; 8],
+            wx,
+            wy,
+        };
+        for j in 0..pos.len() {
+            let lo = [
+                i64::from(x_lo[j]) - self.origin[0],
+                i64::from(y_lo[j]) - self.origin[1],
+            ];
+            let hi = [
+                i64::from(x_hi[j]) - self.origin[0],
+                i64::from(y_hi[j]) - self.origin[1],
+            ];
+            let fits = (0..2).all(|a| {
+                lo[a] >= 0
+                    && hi[a] < self.size[a] as i64
+                    && hi[a] >= lo[a]
+                    && hi[a] - lo[a] < BATCH_COLUMNS as i64
+            });
+            if fits {
+                fp.fast |= 1 << j;
+                fp.origin[j] = [lo[0] as usize, lo[1] as usize];
+                fp.size[j] = [(hi[0] - lo[0] + 1) as usize, (hi[1] - lo[1] + 1) as usize];
+            }
+        }
+        fp
+    }
+
+    /// Adds sample `j` of `fp` (one of its `fast` ones), of value `rgb`:
+    /// what [`TileBuffer::splat`] adds for it, bit for bit.
+    #[inline]
+    pub fn splat_footprint(&mut self, fp: &Footprints, j: usize, [r, g, b]: [f32; 3]) {
+        debug_assert!(fp.fast >> j & 1 != 0);
+        let ([x0, y0], [columns, rows]) = (fp.origin[j], fp.size[j]);
+        let rgb1 = Vec4::new(r, g, b, 1.0);
+        for (row, wy) in fp.wy[..rows].iter().enumerate() {
+            let wy = wy[j];
+            if wy == 0.0 {
+                continue;
+            }
+            let start = ((y0 + row) * self.size[0] + x0) * 4;
+            let cells = &mut self.data[start..start + columns * 4];
+            for (cell, wx) in cells.chunks_exact_mut(4).zip(&fp.wx) {
+                let sum = Vec4::from_slice(cell) + rgb1 * (wy * wx[j]);
+                sum.write_to_slice(cell);
             }
         }
     }
@@ -447,6 +570,65 @@ impl Framebuffer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampler::Pcg32;
+
+    /// Samples splatted through [`TileBuffer::footprints`] (eight at a
+    /// time) and through [`TileBuffer::splat`] (one at a time) leave the
+    /// same buffer bit for bit, for every tabulated filter (footprints two
+    /// to seven pixels wide, the widest not taken by the batch), samples
+    /// all over the tile and just outside it, and at pixel centres, where
+    /// a radius-2 footprint is five pixels wide.
+    #[test]
+    fn footprints_eight_at_a_time_splat_as_one_at_a_time() {
+        let tile = Tile {
+            x0: 16,
+            y0: 8,
+            x1: 32,
+            y1: 24,
+        };
+        let mut rng = Pcg32::new(9, 1);
+        let mut batched_somewhere = false;
+        for filter in [
+            Filter::Tent { radius: 1.0 },
+            Filter::Tent { radius: 1.7 },
+            Filter::Gaussian { stddev: 0.5 },
+            Filter::Mitchell { b: 0.0, c: 0.5 },
+            Filter::Lanczos { lobes: 3 },
+        ] {
+            let table = FilterTable::new(&filter);
+            let mut one = TileBuffer::new(tile, &table, 3);
+            let mut eight = one.clone();
+            for round in 0..200 {
+                let pos: Vec<Vec2> = (0..1 + round % 8)
+                    .map(|k| {
+                        let (x, y) = (16.0 + 18.0 * rng.next_f32(), 8.0 + 18.0 * rng.next_f32());
+                        if k == 3 {
+                            Vec2::new(x.floor() + 0.5, y.floor() + 0.5)
+                        } else {
+                            Vec2::new(x - 1.0, y - 1.0)
+                        }
+                    })
+                    .collect();
+                let rgb: Vec<[f32; 3]> = pos
+                    .iter()
+                    .map(|_| [rng.next_f32(), 2.0 * rng.next_f32(), rng.next_f32()])
+                    .collect();
+                let fp = eight.footprints(&table, &pos);
+                for (j, (p, v)) in pos.iter().zip(&rgb).enumerate() {
+                    one.splat(&table, *p, v);
+                    if fp.fast >> j & 1 != 0 {
+                        eight.splat_footprint(&fp, j, *v);
+                        batched_somewhere = true;
+                    } else {
+                        eight.splat(&table, *p, v);
+                    }
+                }
+            }
+            let bits = |b: &TileBuffer| b.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&one), bits(&eight), "{filter:?}");
+        }
+        assert!(batched_somewhere);
+    }
 
     /// Splats uniform over the film make every pixel of the crop window,
     /// edges included, the splat density (as camera samples of a uniform
