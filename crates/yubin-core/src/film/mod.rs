@@ -96,18 +96,19 @@ fn floor_i32(v: f32) -> i32 {
 
 /// Along one axis, for eight sample coordinates `p` (pixels): the first
 /// and last pixel a filter reaches (as [`ceil_i32`] and [`floor_i32`]
-/// give them) and the weights of its first [`BATCH_COLUMNS`] pixels
+/// give them) and the weights of its first `columns` pixels
 /// (`[k][lane]`), each pixel's offset formed as [`TileBuffer::splat`]
 /// forms it.
 fn footprint_axis(
     filter: &FilterTable,
     p: f32x8,
+    columns: usize,
 ) -> ([i32; 8], [i32; 8], [[f32; 8]; BATCH_COLUMNS]) {
     let (r, half) = (f32x8::splat(filter.radius()), f32x8::splat(0.5));
     let lo = ceil_i32x8(p - r - half);
     let hi = floor_i32x8(p + r - half);
     let mut w = [[0.0; 8]; BATCH_COLUMNS];
-    for (k, w) in w.iter_mut().enumerate() {
+    for (k, w) in w[..columns].iter_mut().enumerate() {
         let pixel = f32x8::from_i32x8(lo + i32x8::splat(k as i32));
         *w = filter.eval_8(pixel + half - p).to_array();
     }
@@ -276,8 +277,11 @@ impl TileBuffer {
         for ((x, y), p) in xs.iter_mut().zip(&mut ys).zip(pos) {
             (*x, *y) = (p.x, p.y);
         }
-        let (x_lo, x_hi, wx) = footprint_axis(filter, f32x8::new(xs));
-        let (y_lo, y_hi, wy) = footprint_axis(filter, f32x8::new(ys));
+        // A footprint spans at most ⌊2r⌋ + 1 pixels (a tent's of radius 1:
+        // two, or three when a sample lies on a pixel's edge).
+        let columns = ((2.0 * filter.radius()) as usize + 1).min(BATCH_COLUMNS);
+        let (x_lo, x_hi, wx) = footprint_axis(filter, f32x8::new(xs), columns);
+        let (y_lo, y_hi, wy) = footprint_axis(filter, f32x8::new(ys), columns);
         let mut fp = Footprints {
             fast: 0,
             origin: [[0; 2]; 8],
@@ -298,7 +302,7 @@ impl TileBuffer {
                 lo[a] >= 0
                     && hi[a] < self.size[a] as i64
                     && hi[a] >= lo[a]
-                    && hi[a] - lo[a] < BATCH_COLUMNS as i64
+                    && hi[a] - lo[a] < columns as i64
             });
             if fits {
                 fp.fast |= 1 << j;
