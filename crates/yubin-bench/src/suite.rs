@@ -97,8 +97,19 @@ pub fn run(args: &[String]) -> Result<()> {
         defines.iter().map(|d| format!(", {d}")).collect::<String>(),
         cpu_model()
     );
-    // The reference of each setting is its own file.
-    let setting: String = defines.iter().map(|d| format!("-{d}")).collect();
+    // The reference of each setting is its own file, named by the sorted
+    // settings with anything but letters, digits, '=', '.' and '_' made
+    // '_' (a value may be a path).
+    let mut sorted = defines.clone();
+    sorted.sort();
+    let setting: String = sorted
+        .iter()
+        .map(|d| {
+            let safe = |c: char| c.is_ascii_alphanumeric() || "=._".contains(c);
+            let d: String = d.chars().map(|c| if safe(c) { c } else { '_' }).collect();
+            format!("-{d}")
+        })
+        .collect();
     let mut header = "| scene | yubin s (load) | relMSE | peak MB |".to_string();
     let mut rule = "|---|---:|---:|---:|".to_string();
     for v in &variants {

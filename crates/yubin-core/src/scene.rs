@@ -757,7 +757,9 @@ impl Scene {
         &self.materials.bsdfs[self.shape_info[shape as usize].bsdf as usize]
     }
 
-    /// The flags of a shape's BSDF ([`BsdfModel::flags`]).
+    /// The flags of a shape's BSDF ([`BsdfModel::flags`]), as
+    /// [`SceneBuilder::build`] took them: a scene whose BSDFs change is
+    /// built again.
     #[inline]
     pub fn bsdf_flags_of(&self, shape: u32) -> crate::bsdf::BsdfFlags {
         self.bsdf_flags[self.shape_info[shape as usize].bsdf as usize]

@@ -143,7 +143,8 @@ fn ceil_i32(v: f32) -> i32 {
 const FIXED_COLUMNS: usize = 8;
 
 /// The widest and tallest footprint [`TileBuffer::footprints`] weighs:
-/// a tent's (2 pixels) and a Gaussian's of radius 2 (4).
+/// a tent's of radius 1 (two pixels, three for a sample on a pixel's
+/// edge) and a Gaussian's of radius 2 (four, five on an edge).
 const BATCH_COLUMNS: usize = 4;
 
 /// The footprints of up to eight RGB samples in a [`TileBuffer`], their
@@ -151,10 +152,10 @@ const BATCH_COLUMNS: usize = 4;
 /// ([`TileBuffer::footprints`]), to be added one sample after the other
 /// ([`TileBuffer::splat_footprint`]).
 #[derive(Clone, Debug)]
-pub struct Footprints {
+pub(crate) struct Footprints {
     /// The samples whose footprint lies in the buffer and is at most
-    /// [`BATCH_COLUMNS`] wide and tall (the others go through
-    /// [`TileBuffer::splat`]).
+    /// ⌊2r⌋ + 1 and [`BATCH_COLUMNS`] pixels wide and tall, r the
+    /// filter's radius (the others go through [`TileBuffer::splat`]).
     pub fast: u32,
     /// Per sample: its first pixel in the buffer and its columns and rows.
     origin: [[usize; 2]; 8],
@@ -271,8 +272,12 @@ impl TileBuffer {
     /// most eight) and their filter weights, eight samples per operation:
     /// the offsets, floors and ceilings and table lookups of
     /// [`TileBuffer::splat`], lane by lane, bit for bit.
-    pub fn footprints(&self, filter: &FilterTable, pos: &[Vec2]) -> Footprints {
-        debug_assert!(pos.len() <= 8 && self.channels == 3 && !filter.is_box());
+    ///
+    /// # Panics
+    /// For more than eight samples, a buffer of other than three values
+    /// per sample or the box filter (whose weights are not tabulated).
+    pub(crate) fn footprints(&self, filter: &FilterTable, pos: &[Vec2]) -> Footprints {
+        assert!(pos.len() <= 8 && self.channels == 3 && !filter.is_box());
         let (mut xs, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
         for ((x, y), p) in xs.iter_mut().zip(&mut ys).zip(pos) {
             (*x, *y) = (p.x, p.y);
@@ -316,7 +321,7 @@ impl TileBuffer {
     /// Adds sample `j` of `fp` (one of its `fast` ones), of value `rgb`:
     /// what [`TileBuffer::splat`] adds for it, bit for bit.
     #[inline]
-    pub fn splat_footprint(&mut self, fp: &Footprints, j: usize, [r, g, b]: [f32; 3]) {
+    pub(crate) fn splat_footprint(&mut self, fp: &Footprints, j: usize, [r, g, b]: [f32; 3]) {
         debug_assert!(fp.fast >> j & 1 != 0);
         let ([x0, y0], [columns, rows]) = (fp.origin[j], fp.size[j]);
         let rgb1 = Vec4::new(r, g, b, 1.0);

@@ -8,9 +8,10 @@
 //! generating random variates from an empirical distribution"; Devroye,
 //! *Non-Uniform Random Variate Generation*, 1986, §III.2.4): for each of
 //! 2^k equal intervals of u, the step its start falls in. A sample then
-//! searches only the few CDF entries between two guides, in one or two
-//! cache lines, instead of binary searching a table of megabytes, and
-//! finds the same step.
+//! searches only the CDF entries between two guides (a few, where the
+//! density is spread; more, binary searched, where one bright texel's
+//! step spans many intervals) instead of a table of megabytes, and finds
+//! the same step. The guides cost one `u32` per interval (2^k ≥ steps).
 
 use glam::Vec2;
 
@@ -80,9 +81,8 @@ impl Distribution1D {
     }
 
     /// The guide table: for u = k / G, k = 0..=G, the step found by a
-    /// search of the whole CDF (G a power of two so that k / G and u · G
-    /// are exact, as they are in f32 up to 2²⁴ steps: an environment map
-    /// 16 million texels wide).
+    /// search of the whole CDF (G a power of two, so that u · G is exact
+    /// and k = ⌊u · G⌋ puts u at or after k / G and before (k + 1) / G).
     fn guide_table(&self) -> Vec<u32> {
         let n = self.func.len();
         let g = n.next_power_of_two();
@@ -104,7 +104,7 @@ impl Distribution1D {
     #[inline]
     fn step_at(&self, u: f32) -> usize {
         let g = self.guide.len() - 1;
-        // u ≥ 0; u · G is exact, so k / G ≤ u < (k + 1) / G.
+        // For u in [0, 1) (the contract of `sample`): k / G ≤ u < (k + 1) / G.
         let k = ((u * g as f32) as usize).min(g - 1);
         let (lo, hi) = (self.guide[k] as usize, self.guide[k + 1] as usize);
         // Every step up to `lo` starts at or before u, none after `hi`.
