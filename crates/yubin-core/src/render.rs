@@ -456,6 +456,9 @@ impl TileJob<'_> {
             tile,
         };
         let mut batch = Batch::with_capacity();
+        // A pinhole camera's rays are made eight at a time, when the batch
+        // is traced.
+        let pinhole = scene.camera.is_pinhole();
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let pixel = y as usize * film.crop_size[0] as usize + x as usize;
@@ -463,14 +466,14 @@ impl TileJob<'_> {
                     continue;
                 }
                 for index in self.samples.clone() {
-                    batch.push(self.camera_sample(x, y, index));
+                    batch.push(self.camera_sample(x, y, index, !pinhole));
                     if batch.rays.len() == BATCH {
-                        self.trace(&mut batch, &mut out);
+                        self.trace(&mut batch, &mut out, pinhole);
                     }
                 }
             }
         }
-        self.trace(&mut batch, &mut out);
+        self.trace(&mut batch, &mut out, pinhole);
         TileResult {
             tile,
             buffer: out.buffer,
@@ -479,14 +482,19 @@ impl TileJob<'_> {
         }
     }
 
+    /// Pixel (`x`, `y`) of the crop window in full-image coordinates.
+    fn full_image_pixel(&self, x: u32, y: u32) -> (u32, u32) {
+        let film = &self.scene.film;
+        (x + film.crop_offset[0], y + film.crop_offset[1])
+    }
+
     /// Sample `index` of pixel (`x`, `y`) of the crop window: its sample
-    /// stream, film offset and camera ray (none when the lens stops it,
-    /// a cat's eye: black).
-    fn camera_sample(&self, x: u32, y: u32, index: u32) -> CameraSample {
+    /// stream, film offset and, when `with_ray`, its camera ray (none when
+    /// the lens stops it, a cat's eye: black; a pinhole's are made by
+    /// [`TileJob::pinhole_rays`]).
+    fn camera_sample(&self, x: u32, y: u32, index: u32, with_ray: bool) -> CameraSample {
         let scene = self.scene;
-        let film = &scene.film;
-        // Pixel coordinates of the full image (crop offset applied).
-        let (fx, fy) = (x + film.crop_offset[0], y + film.crop_offset[1]);
+        let (fx, fy) = self.full_image_pixel(x, y);
         let mut stream = scene.sampler.stream(fx, fy, index, self.seed);
         let offset = stream.next_2d();
         let film_p = Vec2::new(fx as f32, fy as f32) + offset;
@@ -500,13 +508,37 @@ impl TileJob<'_> {
             y,
             index,
             offset,
-            ray: scene.camera.generate_ray(film_p, u_lens),
+            ray: with_ray
+                .then(|| scene.camera.generate_ray(film_p, u_lens))
+                .flatten(),
             stream,
         }
     }
 
-    /// Traces the samples waiting in `batch` and splats them in order.
-    fn trace(&self, batch: &mut Batch, out: &mut TileOutput) {
+    /// The camera rays of the samples in `batch`, eight at a time (a
+    /// pinhole camera's; the same rays as [`TileJob::camera_sample`]'s).
+    fn pinhole_rays(&self, batch: &mut Batch) {
+        for (rays, spots) in batch.rays.chunks_mut(8).zip(batch.spots.chunks(8)) {
+            let (mut xs, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
+            for ((px, py), &(x, y, _, offset)) in xs.iter_mut().zip(&mut ys).zip(spots) {
+                let (fx, fy) = self.full_image_pixel(x, y);
+                (*px, *py) = (fx as f32 + offset.x, fy as f32 + offset.y);
+            }
+            let (xs, ys) = (wide::f32x8::new(xs), wide::f32x8::new(ys));
+            if let Some(made) = self.scene.camera.generate_rays_8(xs, ys) {
+                for (ray, made) in rays.iter_mut().zip(made) {
+                    *ray = Some(made);
+                }
+            }
+        }
+    }
+
+    /// Traces the samples waiting in `batch` and splats them in order;
+    /// `pinhole`: their camera rays are still to be made.
+    fn trace(&self, batch: &mut Batch, out: &mut TileOutput, pinhole: bool) {
+        if pinhole {
+            self.pinhole_rays(batch);
+        }
         let n = batch.rays.len();
         let values = &mut out.values[..n * self.channels];
         self.integrator
