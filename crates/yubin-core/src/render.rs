@@ -3,6 +3,7 @@
 //! in tile order. Every sample value depends only on (pixel, sample index,
 //! dimension, seed), so the image is bit-identical for any thread count.
 
+use crate::camera::Perspective;
 use crate::film::{Framebuffer, Tile, TileBuffer};
 use crate::filter::FilterTable;
 use crate::integrator::{Integrator, Layer};
@@ -458,7 +459,7 @@ impl TileJob<'_> {
         let mut batch = Batch::with_capacity();
         // A pinhole camera's rays are made eight at a time, when the batch
         // is traced.
-        let pinhole = scene.camera.is_pinhole();
+        let pinhole = scene.camera.pinhole();
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let pixel = y as usize * film.crop_size[0] as usize + x as usize;
@@ -466,7 +467,7 @@ impl TileJob<'_> {
                     continue;
                 }
                 for index in self.samples.clone() {
-                    batch.push(self.camera_sample(x, y, index, !pinhole));
+                    batch.push(self.camera_sample(x, y, index, pinhole.is_none()));
                     if batch.rays.len() == BATCH {
                         self.trace(&mut batch, &mut out, pinhole);
                     }
@@ -515,9 +516,9 @@ impl TileJob<'_> {
         }
     }
 
-    /// The camera rays of the samples in `batch`, eight at a time (a
-    /// pinhole camera's; the same rays as [`TileJob::camera_sample`]'s).
-    fn pinhole_rays(&self, batch: &mut Batch) {
+    /// The camera rays of the samples in `batch`, eight at a time (the
+    /// same rays as [`TileJob::camera_sample`]'s).
+    fn pinhole_rays(&self, camera: &Perspective, batch: &mut Batch) {
         for (rays, spots) in batch.rays.chunks_mut(8).zip(batch.spots.chunks(8)) {
             let (mut xs, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
             for ((px, py), &(x, y, _, offset)) in xs.iter_mut().zip(&mut ys).zip(spots) {
@@ -525,19 +526,17 @@ impl TileJob<'_> {
                 (*px, *py) = (fx as f32 + offset.x, fy as f32 + offset.y);
             }
             let (xs, ys) = (wide::f32x8::new(xs), wide::f32x8::new(ys));
-            if let Some(made) = self.scene.camera.generate_rays_8(xs, ys) {
-                for (ray, made) in rays.iter_mut().zip(made) {
-                    *ray = Some(made);
-                }
+            for (ray, made) in rays.iter_mut().zip(camera.generate_pinhole_rays(xs, ys)) {
+                *ray = Some(made);
             }
         }
     }
 
     /// Traces the samples waiting in `batch` and splats them in order;
-    /// `pinhole`: their camera rays are still to be made.
-    fn trace(&self, batch: &mut Batch, out: &mut TileOutput, pinhole: bool) {
-        if pinhole {
-            self.pinhole_rays(batch);
+    /// a `pinhole` camera's rays are still to be made.
+    fn trace(&self, batch: &mut Batch, out: &mut TileOutput, pinhole: Option<&Perspective>) {
+        if let Some(camera) = pinhole {
+            self.pinhole_rays(camera, batch);
         }
         let n = batch.rays.len();
         let values = &mut out.values[..n * self.channels];

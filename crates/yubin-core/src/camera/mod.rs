@@ -158,20 +158,12 @@ impl Camera {
         }
     }
 
-    /// True for a `perspective` camera without a lens, whose rays
-    /// [`Camera::generate_rays_8`] makes eight at a time.
-    pub fn is_pinhole(&self) -> bool {
-        matches!(self, Camera::Perspective(c) if c.lens().is_none())
-    }
-
-    /// The rays [`Camera::generate_ray`] gives for eight film positions,
-    /// computed eight at a time where the camera can (a pinhole
-    /// `perspective`); `None` where it cannot.
-    #[inline]
-    pub fn generate_rays_8(&self, x: wide::f32x8, y: wide::f32x8) -> Option<[Ray; 8]> {
+    /// The camera as a `perspective` without a lens, whose rays
+    /// [`Perspective::generate_pinhole_rays`] makes eight at a time.
+    pub fn pinhole(&self) -> Option<&Perspective> {
         match self {
-            Camera::Perspective(c) => c.generate_pinhole_rays(x, y),
-            Camera::Orthographic(_) => None,
+            Camera::Perspective(c) if c.lens().is_none() => Some(c),
+            _ => None,
         }
     }
 }

@@ -162,11 +162,11 @@ impl Perspective {
     /// [`Perspective::generate_ray`] of a pinhole camera for eight film
     /// positions (`x`, `y`) at once: lane by lane the same operations,
     /// bit for bit, eight rays' chains of square roots and divisions in
-    /// one. `None` for a camera with a lens.
-    pub fn generate_pinhole_rays(&self, x: f32x8, y: f32x8) -> Option<[Ray; 8]> {
-        if self.lens.is_some() {
-            return None;
-        }
+    /// one. For a camera without a lens ([`Camera::pinhole`]).
+    ///
+    /// [`Camera::pinhole`]: super::Camera::pinhole
+    pub fn generate_pinhole_rays(&self, x: f32x8, y: f32x8) -> [Ray; 8] {
+        debug_assert!(self.lens.is_none());
         let s = f32x8::splat;
         let one = f32x8::ONE;
         let ndc_x = x / s(self.resolution.x) + s(self.principal_point.x);
@@ -187,12 +187,12 @@ impl Perspective {
         let t_min = (s(self.near_clip) / local[2]).to_array();
         let t_max = (s(self.far_clip) / local[2]).to_array();
         let o = self.to_world.transform_point3(Vec3::ZERO);
-        Some(std::array::from_fn(|l| Ray {
+        std::array::from_fn(|l| Ray {
             o,
             d: Vec3::new(d[0][l], d[1][l], d[2][l]),
             t_min: t_min[l],
             t_max: t_max[l],
-        }))
+        })
     }
 }
 
@@ -472,9 +472,7 @@ mod tests {
                 Vec2::new(rng.next_f32() * 400.0 - 30.0, rng.next_f32() * 260.0 - 20.0)
             });
             let (x, y) = (p.map(|p| p.x), p.map(|p| p.y));
-            let rays = c
-                .generate_pinhole_rays(f32x8::new(x), f32x8::new(y))
-                .unwrap();
+            let rays = c.generate_pinhole_rays(f32x8::new(x), f32x8::new(y));
             for (p, got) in p.iter().zip(rays) {
                 let want = c.generate_ray(*p, Vec2::ZERO).unwrap();
                 let bits = |r: Ray| {

@@ -303,16 +303,10 @@ impl TileBuffer {
                 i64::from(x_hi[j]) - self.origin[0],
                 i64::from(y_hi[j]) - self.origin[1],
             ];
-            let fits = (0..2).all(|a| {
-                lo[a] >= 0
-                    && hi[a] < self.size[a] as i64
-                    && hi[a] >= lo[a]
-                    && hi[a] - lo[a] < columns as i64
-            });
-            if fits {
+            if let Some(f) = self.fitted(lo, hi, [columns; 2]) {
                 fp.fast |= 1 << j;
-                fp.origin[j] = [lo[0] as usize, lo[1] as usize];
-                fp.size[j] = [(hi[0] - lo[0] + 1) as usize, (hi[1] - lo[1] + 1) as usize];
+                fp.origin[j] = f.origin;
+                fp.size[j] = [f.columns, f.rows];
             }
         }
         fp
@@ -353,14 +347,21 @@ impl TileBuffer {
             i64::from(floor_i32(pos.x + r - 0.5)) - self.origin[0],
             i64::from(floor_i32(pos.y + r - 0.5)) - self.origin[1],
         ];
-        let inside = lo[0] >= 0
-            && lo[1] >= 0
-            && hi[0] < self.size[0] as i64
-            && hi[1] < self.size[1] as i64
-            && hi[0] - lo[0] < FIXED_COLUMNS as i64
-            && hi[0] >= lo[0]
-            && hi[1] >= lo[1];
-        inside.then(|| Footprint {
+        self.fitted(lo, hi, [FIXED_COLUMNS, usize::MAX])
+    }
+
+    /// The footprint from pixel `lo` to `hi` (buffer coordinates,
+    /// inclusive) when it is not empty, lies in the buffer and is at most
+    /// `most` pixels wide and tall.
+    #[inline]
+    fn fitted(&self, lo: [i64; 2], hi: [i64; 2], most: [usize; 2]) -> Option<Footprint> {
+        let fits = (0..2).all(|a| {
+            lo[a] >= 0
+                && hi[a] < self.size[a] as i64
+                && hi[a] >= lo[a]
+                && ((hi[a] - lo[a]) as u64) < most[a] as u64
+        });
+        fits.then(|| Footprint {
             origin: [lo[0] as usize, lo[1] as usize],
             columns: (hi[0] - lo[0]) as usize + 1,
             rows: (hi[1] - lo[1]) as usize + 1,
