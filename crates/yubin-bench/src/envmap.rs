@@ -38,7 +38,7 @@ pub fn run(args: &[String]) -> Result<()> {
         })
         .collect();
     let img = TexImage::new(w, h, 3, ImageData::F32(data), false).context("image")?;
-    let light = EnvMapLight::new(0, 1.0, Mat3::IDENTITY, false);
+    let light = EnvMapLight::new(0, 1.0, Mat3::IDENTITY, Some(false));
     let mut times = Vec::new();
     for _ in 0..reps.max(1) {
         let start = Instant::now();

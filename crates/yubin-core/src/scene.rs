@@ -919,6 +919,7 @@ pub struct SceneBuilder {
     emitters: Vec<Emitter>,
     emitter_options: Vec<EmitterOptions>,
     light_selection: LightSelection,
+    mis_compensation: bool,
     groups: Vec<Vec<Item>>,
     instances: Vec<Instance>,
     group_emitters: Vec<GroupEmitter>,
@@ -947,6 +948,7 @@ impl SceneBuilder {
             emitters: Vec::new(),
             emitter_options: Vec::new(),
             light_selection: LightSelection::default(),
+            mis_compensation: false,
             groups: vec![Vec::new()],
             instances: Vec::new(),
             group_emitters: Vec::new(),
@@ -1272,6 +1274,14 @@ impl SceneBuilder {
         self
     }
 
+    /// Whether light sampling may leave to BSDF sampling the light it finds
+    /// well ([`crate::integrator::Integrator::mis_compensation`]; off
+    /// unless the integrator says so).
+    pub fn mis_compensation(&mut self, on: bool) -> &mut Self {
+        self.mis_compensation = on;
+        self
+    }
+
     /// Sets the camera.
     pub fn camera(&mut self, c: Camera) -> &mut Self {
         self.camera = Some(c);
@@ -1411,13 +1421,17 @@ impl SceneBuilder {
             }
             g.bvh = bvh;
         }
+        // Emitters hidden from indirect rays cannot be found by BSDF
+        // sampling: light sampling must cover them whole.
+        let compensated: Vec<bool> = (self.emitter_options.iter())
+            .map(|o| self.mis_compensation && o.visible_indirect)
+            .collect();
         let light_distributions =
-            crate::light::build_distributions(&mut self.emitters, &self.materials).map_err(
-                |index| BuildError::BadIndex {
+            crate::light::build_distributions(&mut self.emitters, &self.materials, &compensated)
+                .map_err(|index| BuildError::BadIndex {
                     what: "image",
                     index,
-                },
-            )?;
+                })?;
         let environment_emitters = self
             .emitters
             .iter()
@@ -1445,6 +1459,7 @@ impl SceneBuilder {
             self.light_selection,
             &self.emitters,
             &self.emitter_options,
+            &compensated,
             &EmitterContext {
                 shapes: &self.shapes,
                 meshes: &self.meshes,

@@ -26,7 +26,13 @@ fn furnace(albedo: f32) -> Scene {
 
 /// A unit sphere of `bsdf` inside a white environment, seen by a camera.
 fn furnace_with(bsdf: Bsdf) -> Scene {
+    furnace_scene(bsdf, false)
+}
+
+/// [`furnace_with`], with MIS compensation as `compensated` says.
+fn furnace_scene(bsdf: Bsdf, compensated: bool) -> Scene {
     let mut b = SceneBuilder::new();
+    b.mis_compensation(compensated);
     let bsdf = b.add_bsdf(bsdf);
     b.add_shape(
         Shape::Sphere(Sphere::new(Vec3::ZERO, 1.0, false)),
@@ -107,6 +113,30 @@ fn grey_furnace_matches_albedo() {
         .map(|i| px[i])
         .collect();
     assert_uniform(&centre, 0.5, 0.01, 0.05, "path, albedo 0.5");
+}
+
+/// Under MIS compensation the white environment is not light-sampled:
+/// each path's one cosine-weighted BSDF sample escapes to it with the full
+/// weight, so every pixel is ρ·1 exactly, without noise (light samples,
+/// their MIS weights and the BSDF samples' weights below one would add
+/// some), and the path tracer's default asks for it.
+#[test]
+fn compensated_furnaces_render_their_albedo_without_noise() {
+    for albedo in [1.0, 0.5] {
+        let scene = furnace_scene(Bsdf::Diffuse(Diffuse::new(Rgb::splat(albedo))), true);
+        let path = PathIntegrator {
+            max_depth: 64,
+            ..Default::default()
+        };
+        assert!(path.mis_compensation());
+        let px = pixels(&scene, &path, 16);
+        let centre: Vec<Rgb> = (6..10)
+            .flat_map(|y| (6..10).map(move |x| (y * RES + x) as usize))
+            .map(|i| px[i])
+            .collect();
+        assert_uniform(&centre, albedo, 1e-5, 1e-5, "compensated path");
+        assert_uniform(&px[..RES as usize], 1.0, 1e-5, 1e-5, "background");
+    }
 }
 
 #[test]

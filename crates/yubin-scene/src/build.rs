@@ -155,6 +155,7 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
     if let Some(selection) = integrator.light_selection() {
         b.sb.light_selection(selection);
     }
+    b.sb.mis_compensation(integrator.mis_compensation());
     let scene =
         b.sb.build()
             .map_err(|e| SceneError::at(&root.loc, e.to_string()))?;

@@ -146,6 +146,10 @@ impl Integrator for DenoiserGuides {
         self.inner.light_selection()
     }
 
+    fn mis_compensation(&self) -> bool {
+        self.inner.mis_compensation()
+    }
+
     fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         self.inner.li(scene, ray, sampler)
     }

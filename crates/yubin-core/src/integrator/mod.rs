@@ -143,6 +143,17 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
         None
     }
 
+    /// Whether light sampling may leave to BSDF sampling the light that
+    /// BSDF sampling finds well (MIS compensation: `constant` emitters are
+    /// not light-sampled, `envmap`s sample their excess over their mean;
+    /// see [`crate::light::selection`]). Only an integrator that follows
+    /// every light sample with a BSDF sample from the same vertex, and
+    /// weighs the two by MIS, may say yes: where the light's density is
+    /// then zero, BSDF sampling alone finds the light.
+    fn mis_compensation(&self) -> bool {
+        false
+    }
+
     /// The particle tracer, for integrators that trace paths from the
     /// lights and so render through their own loop
     /// ([`ParticleTracer::render`]) instead of per camera ray.

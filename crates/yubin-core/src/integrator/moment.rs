@@ -53,6 +53,10 @@ impl Integrator for MomentIntegrator {
         self.nested.light_selection()
     }
 
+    fn mis_compensation(&self) -> bool {
+        self.nested.mis_compensation()
+    }
+
     fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         self.nested.li(scene, ray, sampler)
     }

@@ -9,6 +9,7 @@
 //! | `rr_depth`      | integer | 5       | Russian roulette starts once a path has this many segments     |
 //! | `hide_emitters` | boolean | false   | emitters seen directly by the camera render black              |
 //! | `light_sampler` | string  | bvh     | how light sampling picks an emitter: `uniform` (Mitsuba's rule, by `sampling_weight`), `power`, `bvh` (yubin) |
+//! | `mis_compensation` | boolean | true | leave to BSDF sampling the light it finds well: `constant` emitters are not light-sampled, `envmap`s sample their excess over their mean (yubin; false: Mitsuba's rule) |
 //!
 //! ```xml
 //! <integrator type="path"><integer name="max_depth" value="8"/></integrator>
@@ -16,6 +17,22 @@
 //!
 //! The roulette survival probability is min(max(β)·η², 0.95), with β the
 //! throughput and η the accumulated relative index of refraction.
+//!
+//! **MIS compensation.** Every light sample is followed by a BSDF sample
+//! from the same vertex, and emitters hit by BSDF samples are weighed
+//! against light sampling by MIS, so light sampling need not cover what
+//! BSDF sampling finds well (Karlík, Šik, Vévoda, Skřivan and Křivánek
+//! 2019, "MIS Compensation: Optimizing Sampling Techniques in Multiple
+//! Importance Sampling", ACM TOG 38(6); pbrt-v4's `allowIncompletePDF`):
+//! with `mis_compensation` (the default) a `constant` emitter is never
+//! chosen for light sampling — cosine-weighted and glossy BSDF samples
+//! find a uniform sky better than uniform directions on the sphere, half of
+//! which point into the surface — and its share of the light samples goes
+//! to the other emitters; an `envmap` samples the excess of its radiance
+//! over its mean, where the sun and bright windows are. Emitters hidden
+//! from indirect rays (`visible_indirect` false) keep full light sampling,
+//! as BSDF samples cannot find them. The images are the same in the mean;
+//! their noise is lower wherever a sky lights the scene (BENCHMARKS.md).
 
 use super::max_depth_param;
 use super::{environment_radiance, sample_light, surface_emission, Integrator, RayOrigin};
@@ -40,6 +57,8 @@ pub struct PathIntegrator {
     pub hide_emitters: bool,
     /// How emitters are chosen for light sampling (`None`: the default).
     pub light_selection: Option<LightSelection>,
+    /// Leave to BSDF sampling the light it finds well (module docs).
+    pub mis_compensation: bool,
 }
 
 impl PathIntegrator {
@@ -50,6 +69,7 @@ impl PathIntegrator {
             rr_depth: super::rr_depth_param(p)?,
             hide_emitters: p.boolean_or("hide_emitters", false)?,
             light_selection: LightSelection::from_params(p)?,
+            mis_compensation: p.boolean_or("mis_compensation", true)?,
         })
     }
 }
@@ -61,6 +81,7 @@ impl Default for PathIntegrator {
             rr_depth: 5,
             hide_emitters: false,
             light_selection: None,
+            mis_compensation: true,
         }
     }
 }
@@ -68,6 +89,10 @@ impl Default for PathIntegrator {
 impl Integrator for PathIntegrator {
     fn light_selection(&self) -> Option<LightSelection> {
         self.light_selection
+    }
+
+    fn mis_compensation(&self) -> bool {
+        self.mis_compensation
     }
 
     fn li(&self, scene: &Scene, camera_ray: &Ray, sampler: &mut SampleStream) -> Rgb {

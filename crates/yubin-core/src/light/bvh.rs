@@ -223,8 +223,9 @@ const MAX_DEPTH: u32 = 63;
 
 impl LightBvh {
     /// Builds the tree over `emitters` in a scene of bounding radius
-    /// `radius`.
-    pub fn new(emitters: &[Emitter], ctx: &EmitterContext, radius: f32) -> Self {
+    /// `radius`, leaving out those whose `left_out` entry is true (their
+    /// probability is 0).
+    pub fn new(emitters: &[Emitter], left_out: &[bool], ctx: &EmitterContext, radius: f32) -> Self {
         let mut bvh = LightBvh {
             first_trail: vec![u32::MAX; emitters.len()],
             split: vec![false; emitters.len()],
@@ -236,7 +237,7 @@ impl LightBvh {
         for (i, e) in emitters.iter().enumerate() {
             let i = i as u32;
             // Nothing samples a directional area light from a point.
-            if matches!(e, Emitter::DirectionalArea(_)) {
+            if matches!(e, Emitter::DirectionalArea(_)) || left_out.get(i as usize) == Some(&true) {
                 continue;
             }
             if has_no_bounds(e) {
@@ -889,6 +890,58 @@ mod tests {
             "{pmf_behind} vs {floor}"
         );
         assert!(near > 10.0 * floor);
+    }
+
+    /// Under MIS compensation every strategy leaves a `constant` emitter to
+    /// BSDF sampling (probability 0, never chosen) and gives its share to
+    /// the other lights; one hidden from indirect rays is still chosen.
+    #[test]
+    fn compensation_leaves_constant_emitters_to_bsdf_sampling() {
+        use crate::light::EmitterOptions;
+        let (p, n) = (Vec3::new(0.5, 0.2, 1.0), Vec3::Z);
+        for selection in [
+            LightSelection::Uniform,
+            LightSelection::Power,
+            LightSelection::Bvh,
+        ] {
+            for visible_indirect in [true, false] {
+                let mut b = SceneBuilder::new();
+                b.add_emitter(Emitter::Point(PointLight {
+                    position: Vec3::new(1.0, 1.0, 4.0),
+                    intensity: Rgb::splat(5.0),
+                }));
+                let sky = b.add_emitter(Emitter::Constant(ConstantLight {
+                    radiance: Rgb::splat(0.1),
+                }));
+                let options = EmitterOptions {
+                    visible_indirect,
+                    ..EmitterOptions::default()
+                };
+                b.set_emitter_options(sky, options);
+                b.light_selection(selection).mis_compensation(true);
+                let scene = b.build().unwrap();
+                let sky = LightChoice {
+                    emitter: sky,
+                    prim: LightChoice::WHOLE,
+                };
+                let point = LightChoice { emitter: 0, ..sky };
+                let sampler = &scene.light_sampler;
+                let (sky_pmf, point_pmf) = (sampler.pmf(sky, p, n), sampler.pmf(point, p, n));
+                let mut rng = Pcg32::new(5, 9);
+                let picked_sky = (0..1000)
+                    .filter(|_| sampler.sample(rng.next_f32(), p, n).unwrap().0 == sky)
+                    .count();
+                let case = format!("{selection:?}, visible_indirect {visible_indirect}");
+                if visible_indirect {
+                    assert_eq!((sky_pmf, point_pmf, picked_sky), (0.0, 1.0, 0), "{case}");
+                } else {
+                    assert!(
+                        sky_pmf > 0.05 && picked_sky > 20,
+                        "{case}: {sky_pmf}, {picked_sky}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

@@ -9,7 +9,11 @@
 //! <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
 //! ```
 //!
-//! Sampled uniformly over the sphere of directions (density 1/4π).
+//! Sampled uniformly over the sphere of directions (density 1/4π) — except
+//! under `path`'s MIS compensation (its default), which leaves it to BSDF
+//! sampling alone: cosine-weighted and glossy BSDF samples find a uniform
+//! sky better than uniform directions, half of which point into the
+//! surface.
 
 use super::{EmitterContext, EmitterModel, EmitterSample};
 use crate::params::{ColorKind, ParamError, Params};

@@ -6,7 +6,7 @@
 //! | `filename`         | string    | required | the image (EXR, HDR, PFM; 8-bit images are sRGB-decoded) |
 //! | `scale`            | float     | 1        | factor on the image's radiance                  |
 //! | `to_world`         | transform | identity | orientation of the map (its linear part)        |
-//! | `mis_compensation` | boolean   | false    | sample from the map minus its mean (Karlík et al. 2019) |
+//! | `mis_compensation` | boolean   | (integrator's) | sample from the map minus its mean (Karlík et al. 2019); by default as the integrator's `mis_compensation` says (`path`: true) |
 //!
 //! ```xml
 //! <emitter type="envmap">
@@ -36,7 +36,9 @@
 //! the dim regions and light sampling spends its samples on the bright
 //! ones (Karlík, Šik, Vévoda, Skřivan and Křivánek 2019, "MIS
 //! Compensation: Optimizing Sampling Techniques in Multiple Importance
-//! Sampling", ACM TOG 38(6)).
+//! Sampling", ACM TOG 38(6)). That is right only where every light sample
+//! is paired with a BSDF sample under MIS, as `path` pairs them: set true
+//! for another integrator, the dim regions are never lit.
 //!
 //! **Bad maps.** An image that is not twice as wide as tall (within 2 %)
 //! is a load error, since it cannot be latitude–longitude; negative and
@@ -68,8 +70,9 @@ pub struct EnvMapLight {
     pub distribution: u32,
     /// Factor on the image's values.
     pub scale: f32,
-    /// Sample the map minus its mean (see the module docs).
-    pub mis_compensation: bool,
+    /// Sample the map minus its mean (see the module docs); `None`: as the
+    /// integrator says, decided when the scene is built.
+    pub mis_compensation: Option<bool>,
     /// World directions to the map's frame (the inverse of `to_world`'s
     /// linear part).
     pub light_from_world: Mat3,
@@ -80,7 +83,7 @@ pub struct EnvMapLight {
 impl EnvMapLight {
     /// A map of image `image` oriented by `to_world` (its linear part; must
     /// be invertible), its distribution not yet built.
-    pub fn new(image: u32, scale: f32, to_world: Mat3, mis_compensation: bool) -> Self {
+    pub fn new(image: u32, scale: f32, to_world: Mat3, mis_compensation: Option<bool>) -> Self {
         Self {
             image,
             distribution: u32::MAX,
@@ -108,7 +111,7 @@ impl EnvMapLight {
         if !det.is_finite() || det.abs() < 1e-12 {
             return Err(p.param_error("to_world", "must be invertible"));
         }
-        let mis_compensation = p.boolean_or("mis_compensation", false)?;
+        let mis_compensation = p.boolean("mis_compensation")?;
         Ok(Self::new(image, scale, linear.as_mat3(), mis_compensation))
     }
 
@@ -210,7 +213,7 @@ impl EnvMapLight {
                 })
                 .collect()
         };
-        if self.mis_compensation {
+        if self.mis_compensation == Some(true) {
             // The mean over solid angle, which the sin θ weights measure.
             let (sum, area) = (0..rows)
                 .into_par_iter()
@@ -407,10 +410,13 @@ pub(crate) mod tests {
         let rotation = Mat3::from_cols_array_2d(&ROTATION).transpose();
         let cases = [
             (
-                EnvMapLight::new(0, 1.0, Mat3::IDENTITY, false),
+                EnvMapLight::new(0, 1.0, Mat3::IDENTITY, Some(false)),
                 MITSUBA_IDENTITY,
             ),
-            (EnvMapLight::new(0, 2.5, rotation, false), MITSUBA_ROTATED),
+            (
+                EnvMapLight::new(0, 2.5, rotation, Some(false)),
+                MITSUBA_ROTATED,
+            ),
         ];
         for (light, expected) in cases {
             for (d, want) in DIRECTIONS.iter().zip(expected) {
@@ -450,12 +456,12 @@ pub(crate) mod tests {
         [
             (
                 "envmap with a bright texel",
-                EnvMapLight::new(0, 1.0, Mat3::IDENTITY, false),
+                EnvMapLight::new(0, 1.0, Mat3::IDENTITY, Some(false)),
                 spot_image(24, 12),
             ),
             (
                 "envmap rotated and compensated",
-                EnvMapLight::new(0, 3.0, rotation, true),
+                EnvMapLight::new(0, 3.0, rotation, Some(true)),
                 spot_image(17, 9),
             ),
         ]
@@ -475,7 +481,7 @@ pub(crate) mod tests {
     #[test]
     fn samples_carry_the_radiance_and_integrate_it() {
         let img = spot_image(24, 12);
-        let mut light = EnvMapLight::new(0, 2.0, Mat3::from_rotation_x(0.4), false);
+        let mut light = EnvMapLight::new(0, 2.0, Mat3::from_rotation_x(0.4), Some(false));
         let dists = with_distribution(&mut light, &img);
         let images = [img];
         let ctx = context(&images, &dists);
@@ -518,7 +524,7 @@ pub(crate) mod tests {
         let value = [0.7, 1.3, 2.1];
         let data = value.repeat(16 * 8);
         let img = TexImage::new(16, 8, 3, ImageData::F32(data), false).unwrap();
-        let mut light = EnvMapLight::new(0, 1.5, Mat3::from_rotation_y(1.0), false);
+        let mut light = EnvMapLight::new(0, 1.5, Mat3::from_rotation_y(1.0), Some(false));
         let dists = with_distribution(&mut light, &img);
         let images = [img];
         let ctx = context(&images, &dists);

@@ -38,7 +38,9 @@ pub use envmap::EnvMapLight;
 pub use point::PointLight;
 pub use preetham::PreethamLight;
 pub use projector::ProjectorLight;
-pub use selection::{EmitterOptions, LightChoice, LightSampler, LightSelection};
+pub use selection::{
+    left_to_bsdf_sampling, EmitterOptions, LightChoice, LightSampler, LightSelection,
+};
 pub use spot::SpotLight;
 
 use crate::interaction::SurfaceInteraction;
@@ -207,20 +209,26 @@ pub(crate) fn power_mean(t: crate::texture::Tex, m: &crate::material::Materials)
 /// Builds the sampling distributions that emitters keep in the scene
 /// (`Scene::light_distributions`) and points each emitter at its own, and
 /// fits projectors to their image's aspect ratio;
-/// `SceneBuilder::build` calls it. Fails with the index of an image that
-/// is not in `images`.
+/// `SceneBuilder::build` calls it. `compensated[i]`: emitter `i` may leave
+/// to BSDF sampling what it finds well (an `envmap` that does not say
+/// otherwise then samples its excess over its mean). Fails with the index
+/// of an image that is not in `images`.
 pub fn build_distributions(
     emitters: &mut [Emitter],
     materials: &crate::material::Materials,
+    compensated: &[bool],
 ) -> Result<Vec<Distribution2D>, u32> {
     let images = &materials.images;
     let mut distributions = Vec::new();
-    for e in emitters {
+    for (i, e) in emitters.iter_mut().enumerate() {
         if let Emitter::Projector(l) = e {
             l.fit_image_plane(materials);
         }
         if let Emitter::EnvMap(env) = e {
             let image = images.get(env.image as usize).ok_or(env.image)?;
+            env.mis_compensation = env
+                .mis_compensation
+                .or(Some(compensated.get(i).copied().unwrap_or(false)));
             env.distribution = distributions.len() as u32;
             distributions.push(env.sampling_distribution(image));
         }
@@ -535,7 +543,8 @@ pub(crate) mod tests {
         let distributions: Vec<Vec<Distribution2D>> = variants
             .iter_mut()
             .map(|v| {
-                build_distributions(std::slice::from_mut(&mut v.emitter), &v.materials).unwrap()
+                build_distributions(std::slice::from_mut(&mut v.emitter), &v.materials, &[false])
+                    .unwrap()
             })
             .collect();
         // Šidák's correction keeps the chance that any of the chi-square

@@ -16,6 +16,11 @@
 //! Whatever the strategy, the probability of the light a BSDF-sampled ray
 //! happened to hit is available for MIS ([`LightSampler::pmf`]).
 //!
+//! Under MIS compensation (the `path` integrator's `mis_compensation`,
+//! [`crate::integrator::Integrator::mis_compensation`]) every strategy
+//! leaves `constant` emitters out: their probability is 0, BSDF sampling
+//! alone finds them, and the other emitters share their light samples.
+//!
 //! **Parameters of every emitter** (`area` included):
 //!
 //! | parameter          | type    | default | meaning                                                   |
@@ -149,14 +154,20 @@ pub struct LightSampler {
 
 impl LightSampler {
     /// Builds the sampler for `emitters` with their `options`; `ctx` sees
-    /// the scene, whose geometry has bounding-sphere radius `radius`.
+    /// the scene, whose geometry has bounding-sphere radius `radius`;
+    /// `compensated[i]`: emitter `i` may leave to BSDF sampling what it
+    /// finds well ([`left_to_bsdf_sampling`]).
     pub fn new(
         selection: LightSelection,
         emitters: &[Emitter],
         options: &[EmitterOptions],
+        compensated: &[bool],
         ctx: &EmitterContext,
         radius: f32,
     ) -> Self {
+        let left_out: Vec<bool> = (emitters.iter().enumerate())
+            .map(|(i, e)| left_to_bsdf_sampling(e, compensated.get(i).copied().unwrap_or(false)))
+            .collect();
         if emitters.is_empty() {
             return Self {
                 selection,
@@ -172,12 +183,19 @@ impl LightSampler {
                         LightSelection::Power => e.power(ctx, radius) * o.sampling_weight,
                         _ => o.sampling_weight,
                     })
-                    .map(|w| if w.is_finite() { w.max(0.0) } else { 0.0 })
+                    .zip(&left_out)
+                    .map(|(w, &out)| {
+                        if w.is_finite() && !out {
+                            w.max(0.0)
+                        } else {
+                            0.0
+                        }
+                    })
                     .collect();
                 // All weights zero: fall back to uniform rather than never
-                // sampling lights at all.
-                let table = AliasTable::new(&weights)
-                    .or_else(|| AliasTable::new(&vec![1.0; emitters.len()]));
+                // sampling lights at all (but never those left out).
+                let uniform: Vec<f32> = left_out.iter().map(|&out| f32::from(!out as u8)).collect();
+                let table = AliasTable::new(&weights).or_else(|| AliasTable::new(&uniform));
                 Self {
                     selection,
                     table,
@@ -187,7 +205,7 @@ impl LightSampler {
             LightSelection::Bvh => Self {
                 selection,
                 table: None,
-                bvh: Some(LightBvh::new(emitters, ctx, radius)),
+                bvh: Some(LightBvh::new(emitters, &left_out, ctx, radius)),
             },
         }
     }
@@ -230,4 +248,11 @@ impl LightSampler {
     pub fn splits(&self, emitter: u32) -> bool {
         self.bvh.as_ref().is_some_and(|b| b.splits(emitter))
     }
+}
+
+/// Whether light sampling leaves emitter `e` to BSDF sampling alone when
+/// it may leave what BSDF sampling finds well (`compensated`): a
+/// `constant` emitter, whose excess over its mean is nothing.
+pub fn left_to_bsdf_sampling(e: &Emitter, compensated: bool) -> bool {
+    compensated && matches!(e, Emitter::Constant(_))
 }

@@ -1,0 +1,90 @@
+//! MIS compensation (`path`'s `mis_compensation`, on by default): light
+//! sampling leaves `constant` emitters to BSDF sampling and samples an
+//! `envmap`'s excess over its mean. The image must stay the same in the
+//! mean, with less noise.
+
+mod common;
+
+use common::{assert_same_image, render_statistics};
+use yubin_scene::image_io::{write_image, Image};
+
+/// A sky with a small bright sun and a gradient, as a lat-long map.
+fn write_sky(path: &std::path::Path) {
+    let (w, h) = (32usize, 16usize);
+    let mut data = Vec::with_capacity(w * h * 3);
+    for y in 0..h {
+        for x in 0..w {
+            let sun = (9..11).contains(&x) && (4..6).contains(&y);
+            let sky = 0.2 + 0.6 * (1.0 - y as f32 / h as f32);
+            let v = if sun { 60.0 } else { sky };
+            data.extend([v, 0.9 * v, 0.8 * v]);
+        }
+    }
+    let img = Image {
+        width: w,
+        height: h,
+        channels: 3,
+        data,
+    };
+    write_image(path, &img, &[]).unwrap();
+}
+
+/// Spheres of rough metal and rough plastic on a diffuse floor, lit by a
+/// map, a constant sky and a small rectangle, with `mis_compensation` as
+/// `compensated`.
+fn scene(map: &std::path::Path, compensated: bool) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+    <integrator type="path">
+        <integer name="max_depth" value="4"/>
+        <boolean name="mis_compensation" value="{compensated}"/>
+    </integrator>
+    <sensor type="perspective">
+        <float name="fov" value="45"/>
+        <transform name="to_world"><lookat origin="0, 2, -5" target="0, 0.4, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm">
+            <integer name="width" value="24"/>
+            <integer name="height" value="18"/>
+            <rfilter type="box"/>
+        </film>
+    </sensor>
+    <emitter type="envmap"><string name="filename" value="{map}"/></emitter>
+    <emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.3"/><rotate x="1" angle="90"/><translate y="3"/></transform>
+        <emitter type="area"><rgb name="radiance" value="20"/></emitter>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.6"/></bsdf>
+    </shape>
+    <shape type="sphere">
+        <point name="center" x="-0.7" y="0.6" z="0"/><float name="radius" value="0.6"/>
+        <bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf>
+    </shape>
+    <shape type="sphere">
+        <point name="center" x="0.7" y="0.6" z="0"/><float name="radius" value="0.6"/>
+        <bsdf type="roughplastic"><float name="alpha" value="0.3"/></bsdf>
+    </shape>
+</scene>"#,
+        map = map.display()
+    )
+}
+
+#[test]
+fn compensated_skies_give_the_same_image_with_less_noise() {
+    let dir = std::env::temp_dir().join(format!("yubin-mis-compensation-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let map = dir.join("sky.exr");
+    write_sky(&map);
+    let (on, off) = (scene(&map, true), scene(&map, false));
+    assert_same_image(&on, &off, 16, 16, "mis_compensation on vs off");
+    let noise = |xml: &str| render_statistics(xml, 16, 16).1.iter().sum::<f64>();
+    let (noise_on, noise_off) = (noise(&on), noise(&off));
+    std::fs::remove_dir_all(&dir).ok();
+    println!("summed variance: {noise_on} with compensation, {noise_off} without");
+    assert!(
+        noise_on < 0.8 * noise_off,
+        "summed variance {noise_on} with compensation, {noise_off} without"
+    );
+}
