@@ -18,16 +18,21 @@ fn z_test_scene(test: &str, scene: &str, reference: &str) {
 /// (3 % by default; more, or no check, only where the reference's own
 /// noise hides a smaller bias, said at the call).
 fn z_test_scene_with(test: &str, scene: &str, reference: &str, brighter: Option<f32>) {
-    z_test_scene_defines(test, scene, reference, brighter, &[]);
+    z_test_scene_defines(test, scene, reference, brighter, &[], SAMPLES);
 }
 
-/// [`z_test_scene_with`] with `-D name=value` defines.
+/// Samples per image of a Z-test render (spread over its pixels).
+const SAMPLES: u32 = 2_000_000;
+
+/// [`z_test_scene_with`] with `-D name=value` defines and `samples` per
+/// image.
 fn z_test_scene_defines(
     test: &str,
     scene: &str,
     reference: &str,
     brighter: Option<f32>,
     defines: &[(&str, &str)],
+    samples: u32,
 ) {
     let defines: Vec<(String, String)> = defines
         .iter()
@@ -45,7 +50,7 @@ fn z_test_scene_defines(
     )
     .unwrap();
     let pixels = ref_mean.width * ref_mean.height;
-    let spp = (2_000_000 / pixels) as u32;
+    let spp = samples / pixels as u32;
     let out = render_file(&scene_path, &defines, spp, 0);
     let mean = out.image.select_channels(0..3);
     assert_eq!(
@@ -251,12 +256,16 @@ fn ztest_participating_media_surf_area_light_volpath_shared() {
 /// `volpath` references.
 #[test]
 fn ztest_participating_media_volpathmis_shared() {
-    for (name, brighter) in [
-        ("test_hetero_sigmat", 1.05),
-        ("test_homo_area_light", 1.08),
-        ("test_homo_dielectric_envmap", 1.03),
-        ("test_homo_null_envmap", 1.08),
-        ("test_surf_area_light", 1.08),
+    // The smoke under a sky: with MIS compensation yubin's image is less
+    // noisy than the reference's variance says, and a 5 % brighter image
+    // at the usual sample count fails 13 channel tests where the Z-test
+    // lets 17 fail (33 before compensation); twice the samples tell it.
+    for (name, brighter, samples) in [
+        ("test_hetero_sigmat", 1.05, 2 * SAMPLES),
+        ("test_homo_area_light", 1.08, SAMPLES),
+        ("test_homo_dielectric_envmap", 1.03, SAMPLES),
+        ("test_homo_null_envmap", 1.08, SAMPLES),
+        ("test_surf_area_light", 1.08, SAMPLES),
     ] {
         z_test_scene_defines(
             "ztest_participating_media_volpathmis_shared",
@@ -264,6 +273,7 @@ fn ztest_participating_media_volpathmis_shared() {
             &format!("participating_media/refs/{name}_ref_rgb"),
             Some(brighter),
             &[("integrator", "volpathmis")],
+            samples,
         );
     }
 }

@@ -11,7 +11,10 @@
 //! (multiplying by what each lets through), change medium at shapes that
 //! bound media, and take the transmittance of every medium on the way
 //! (exact when homogeneous, ratio tracking otherwise; Novák et al. 2014).
-//! Light and phase/BSDF sampling are combined by MIS (power heuristic).
+//! Light and phase/BSDF sampling are combined by MIS (power heuristic),
+//! and every light sample is followed by a phase or BSDF sample from the
+//! same vertex, so light sampling may leave them the light they find well
+//! (`mis_compensation`, as in `path`).
 //!
 //! | parameter       | type    | default | meaning                                                        |
 //! |-----------------|---------|---------|----------------------------------------------------------------|
@@ -19,6 +22,7 @@
 //! | `rr_depth`      | integer | 5       | Russian roulette starts after this many scattering events      |
 //! | `hide_emitters` | boolean | false   | emitters seen directly by the camera render black              |
 //! | `light_sampler` | string  | bvh     | how light sampling picks an emitter (see `path`)               |
+//! | `mis_compensation` | boolean | true | leave to phase and BSDF sampling the light they find well (see `path`) |
 //! | `shadow_rays`   | string  | generalized | `binary`: shadow rays stop at any surface (yubin; for comparison, seed 003) |
 //!
 //! ```xml
@@ -73,6 +77,9 @@ pub struct VolPathIntegrator {
     /// null collisions and null lobes included), balance heuristic over
     /// strategies and channels.
     pub path_mis: bool,
+    /// Leave to phase and BSDF sampling the light they find well (see
+    /// `path`).
+    pub mis_compensation: bool,
 }
 
 impl VolPathIntegrator {
@@ -85,6 +92,7 @@ impl VolPathIntegrator {
             light_selection: LightSelection::from_params(p)?,
             binary_shadow_rays: p.choice("shadow_rays", &["generalized", "binary"])? == 1,
             path_mis: false,
+            mis_compensation: p.boolean_or("mis_compensation", true)?,
         })
     }
 
@@ -113,6 +121,7 @@ impl Default for VolPathIntegrator {
             light_selection: None,
             binary_shadow_rays: false,
             path_mis: false,
+            mis_compensation: true,
         }
     }
 }
@@ -439,6 +448,10 @@ impl VolPathIntegrator {
 impl Integrator for VolPathIntegrator {
     fn light_selection(&self) -> Option<LightSelection> {
         self.light_selection
+    }
+
+    fn mis_compensation(&self) -> bool {
+        self.mis_compensation
     }
 
     fn li(&self, scene: &Scene, camera_ray: &Ray, sampler: &mut SampleStream) -> Rgb {

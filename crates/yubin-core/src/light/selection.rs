@@ -16,7 +16,7 @@
 //! Whatever the strategy, the probability of the light a BSDF-sampled ray
 //! happened to hit is available for MIS ([`LightSampler::pmf`]).
 //!
-//! Under MIS compensation (the `path` integrator's `mis_compensation`,
+//! Under MIS compensation (`path`'s and `volpath`'s `mis_compensation`,
 //! [`crate::integrator::Integrator::mis_compensation`]) every strategy
 //! leaves `constant` emitters out: their probability is 0, BSDF sampling
 //! alone finds them, and the other emitters share their light samples.
