@@ -33,10 +33,14 @@ fn write_sky(path: &std::path::Path) {
 /// map, a constant sky and a small rectangle, rendered by `integrator`
 /// with `mis_compensation` as `compensated`; `extra` adds shapes.
 fn scene(map: &std::path::Path, integrator: &str, compensated: bool, extra: &str) -> String {
+    let depth = match integrator {
+        "direct" => "",
+        _ => r#"<integer name="max_depth" value="4"/>"#,
+    };
     format!(
         r#"<scene version="3.0.0">
     <integrator type="{integrator}">
-        <integer name="max_depth" value="4"/>
+        {depth}
         <boolean name="mis_compensation" value="{compensated}"/>
     </integrator>
     <sensor type="perspective">
@@ -114,6 +118,38 @@ fn check_same_image_less_noise(integrator: &str, extra: &str) {
 #[test]
 fn compensated_skies_give_the_same_image_with_less_noise() {
     check_same_image_less_noise("path", "");
+}
+
+#[test]
+fn compensated_skies_in_direct_light_give_the_same_image_with_less_noise() {
+    check_same_image_less_noise("direct", "");
+}
+
+/// Without BSDF samples, light sampling is `direct`'s only strategy and
+/// keeps every emitter whole (else the sky would be lost).
+#[test]
+fn direct_light_sampling_alone_is_not_compensated() {
+    let dir = std::env::temp_dir().join(format!(
+        "yubin-mis-compensation-alone-{}",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let map = dir.join("sky.exr");
+    write_sky(&map);
+    let light_only = |compensated| {
+        scene(&map, "direct", compensated, "").replace(
+            "<boolean name=\"mis_compensation\"",
+            "<integer name=\"bsdf_samples\" value=\"0\"/><boolean name=\"mis_compensation\"",
+        )
+    };
+    assert_same_image(
+        &light_only(true),
+        &light_only(false),
+        16,
+        16,
+        "direct, light samples only",
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

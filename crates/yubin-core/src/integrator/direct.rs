@@ -9,6 +9,7 @@
 //! | `bsdf_samples`    | integer | shading | BSDF samples per hit                      |
 //! | `hide_emitters`   | boolean | false   | emitters seen by the camera render black  |
 //! | `light_sampler` | string  | bvh     | how light sampling picks an emitter: `uniform` (Mitsuba's rule, by `sampling_weight`), `power`, `bvh` (yubin) |
+//! | `mis_compensation` | boolean | true | with BSDF samples, leave to them the light they find well (see `path`) |
 //!
 //! ```xml
 //! <integrator type="direct"><integer name="emitter_samples" value="4"/></integrator>
@@ -33,6 +34,9 @@ pub struct DirectIntegrator {
     pub hide_emitters: bool,
     /// How emitters are chosen for light sampling (`None`: the default).
     pub light_selection: Option<LightSelection>,
+    /// Leave to BSDF sampling the light it finds well, when there are BSDF
+    /// samples (see `path`).
+    pub mis_compensation: bool,
 }
 
 impl DirectIntegrator {
@@ -45,6 +49,7 @@ impl DirectIntegrator {
             bsdf_samples: p.integer_or("bsdf_samples", shading)?.max(0) as u32,
             hide_emitters: p.boolean_or("hide_emitters", false)?,
             light_selection: LightSelection::from_params(p)?,
+            mis_compensation: p.boolean_or("mis_compensation", true)?,
         })
     }
 }
@@ -56,6 +61,7 @@ impl Default for DirectIntegrator {
             bsdf_samples: 1,
             hide_emitters: false,
             light_selection: None,
+            mis_compensation: true,
         }
     }
 }
@@ -63,6 +69,12 @@ impl Default for DirectIntegrator {
 impl Integrator for DirectIntegrator {
     fn light_selection(&self) -> Option<LightSelection> {
         self.light_selection
+    }
+
+    /// Only with BSDF samples: without them light sampling is the only
+    /// strategy and must cover every emitter whole.
+    fn mis_compensation(&self) -> bool {
+        self.mis_compensation && self.bsdf_samples > 0
     }
 
     fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {

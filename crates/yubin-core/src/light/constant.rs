@@ -10,8 +10,8 @@
 //! ```
 //!
 //! Sampled uniformly over the sphere of directions (density 1/4π) — except
-//! under `path`'s and `volpath`'s MIS compensation (their default), which
-//! leaves it to BSDF and phase sampling alone: cosine-weighted and glossy BSDF samples find a uniform
+//! under the MIS compensation of `path`, `volpath` and `direct` (their
+//! default), which leaves it to BSDF and phase sampling alone: cosine-weighted and glossy BSDF samples find a uniform
 //! sky better than uniform directions, half of which point into the
 //! surface.
 

@@ -16,7 +16,8 @@
 //! Whatever the strategy, the probability of the light a BSDF-sampled ray
 //! happened to hit is available for MIS ([`LightSampler::pmf`]).
 //!
-//! Under MIS compensation (`path`'s and `volpath`'s `mis_compensation`,
+//! Under MIS compensation (the `mis_compensation` of `path`, `volpath`
+//! and `direct` with BSDF samples,
 //! [`crate::integrator::Integrator::mis_compensation`]) every strategy
 //! leaves `constant` emitters out: their probability is 0, BSDF sampling
 //! alone finds them, and the other emitters share their light samples.
