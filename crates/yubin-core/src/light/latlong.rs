@@ -22,9 +22,19 @@ pub(crate) fn uv_of(d: Vec3) -> Vec2 {
 /// The unit direction at (u, v).
 #[inline]
 pub(crate) fn direction_of(uv: Vec2) -> Vec3 {
+    direction_and_sin_theta(uv).0
+}
+
+/// [`direction_of`] and the sine of its polar angle (which converts
+/// densities, [`solid_angle_pdf`]).
+#[inline]
+pub(crate) fn direction_and_sin_theta(uv: Vec2) -> (Vec3, f32) {
     let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
     let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
-    Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi)
+    (
+        Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi),
+        sin_theta,
+    )
 }
 
 /// The solid-angle density of unit direction `d` for the density
