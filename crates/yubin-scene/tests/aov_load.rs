@@ -86,3 +86,28 @@ fn bad_aov_lists_are_errors_with_file_and_line() {
         assert!(err.contains(needle), "{err}");
     }
 }
+
+/// AOVs beside a path tracer keep its MIS compensation; one nested
+/// integrator that must sample lights whole (`direct` without BSDF
+/// samples) turns it off for all, as they share the scene's lights.
+#[test]
+fn aov_compensates_when_every_nested_integrator_does() {
+    let compensates = |xml: &str| {
+        load_scene_str(&scene(xml), Path::new("aov.xml"), &[])
+            .unwrap()
+            .integrator
+            .mis_compensation()
+    };
+    let aov = |nested: &str| {
+        format!(
+            r#"<integrator type="aov"><string name="aovs" value="dd:depth"/>{nested}</integrator>"#
+        )
+    };
+    assert!(compensates(&aov(
+        r#"<integrator type="path" name="image"/>"#
+    )));
+    assert!(!compensates(&aov(
+        r#"<integrator type="path" name="a"/><integrator type="direct" name="b"><integer name="bsdf_samples" value="0"/></integrator>"#
+    )));
+    assert!(!compensates(&aov("")));
+}

@@ -324,6 +324,11 @@ impl Integrator for AovIntegrator {
         self.nested_channels + self.aov_channels
     }
 
+    /// When every nested integrator may (they share the scene's lights).
+    fn mis_compensation(&self) -> bool {
+        !self.nested.is_empty() && self.nested.iter().all(|(_, i)| i.mis_compensation())
+    }
+
     fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         match self.nested.first() {
             Some((_, integrator)) => integrator.li(scene, ray, sampler),
