@@ -126,7 +126,8 @@ fn compensated_skies_in_direct_light_give_the_same_image_with_less_noise() {
 }
 
 /// Without BSDF samples, light sampling is `direct`'s only strategy and
-/// keeps every emitter whole (else the sky would be lost).
+/// keeps every emitter whole (else the sky would be lost), even a map that
+/// asks for compensation itself.
 #[test]
 fn direct_light_sampling_alone_is_not_compensated() {
     let dir = std::env::temp_dir().join(format!(
@@ -142,8 +143,13 @@ fn direct_light_sampling_alone_is_not_compensated() {
             "<integer name=\"bsdf_samples\" value=\"0\"/><boolean name=\"mis_compensation\"",
         )
     };
+    // The compensated side's map asks for compensation itself too.
+    let asked = light_only(true).replace(
+        "<emitter type=\"envmap\">",
+        "<emitter type=\"envmap\"><boolean name=\"mis_compensation\" value=\"true\"/>",
+    );
     assert_same_image(
-        &light_only(true),
+        &asked,
         &light_only(false),
         16,
         16,

@@ -88,6 +88,11 @@ impl AoIntegrator {
 }
 
 impl Integrator for AoIntegrator {
+    /// It samples no lights: whatever its neighbours in an `aov` do.
+    fn mis_compensation(&self) -> bool {
+        true
+    }
+
     fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         let Some(si) = scene.intersect(ray) else {
             return Rgb::ZERO;

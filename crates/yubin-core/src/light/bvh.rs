@@ -942,6 +942,31 @@ mod tests {
                 }
             }
         }
+        // A light of sampling weight 0 beside the sky is never sampled,
+        // with or without compensation (Mitsuba's rule); only when every
+        // weight is 0 do the lights share uniformly.
+        for (point_weight, sampled) in [(0.0, false), (1.0, true)] {
+            let mut b = SceneBuilder::new();
+            let point = b.add_emitter(Emitter::Point(PointLight {
+                position: Vec3::new(1.0, 1.0, 4.0),
+                intensity: Rgb::splat(5.0),
+            }));
+            b.set_emitter_options(
+                point,
+                EmitterOptions {
+                    sampling_weight: point_weight,
+                    ..EmitterOptions::default()
+                },
+            );
+            b.add_emitter(Emitter::Constant(ConstantLight {
+                radiance: Rgb::splat(0.1),
+            }));
+            b.light_selection(LightSelection::Uniform)
+                .mis_compensation(true);
+            let scene = b.build().unwrap();
+            let got = scene.light_sampler.sample(0.5, p, n).is_some();
+            assert_eq!(got, sampled, "point light of weight {point_weight}");
+        }
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! | `filename`         | string    | required | the image (EXR, HDR, PFM; 8-bit images are sRGB-decoded) |
 //! | `scale`            | float     | 1        | factor on the image's radiance                  |
 //! | `to_world`         | transform | identity | orientation of the map (its linear part)        |
-//! | `mis_compensation` | boolean   | (integrator's) | sample from the map minus its mean (Karlík et al. 2019); by default as the integrator's `mis_compensation` says (`path`: true) |
+//! | `mis_compensation` | boolean   | true     | sample from the map minus its mean (Karlík et al. 2019) where the integrator allows it (its own `mis_compensation`: `path`, `volpath`, and `direct` with BSDF samples) and the map is `visible_indirect`; false: the whole map always |
 //!
 //! ```xml
 //! <emitter type="envmap">
@@ -37,8 +37,9 @@
 //! ones (Karlík, Šik, Vévoda, Skřivan and Křivánek 2019, "MIS
 //! Compensation: Optimizing Sampling Techniques in Multiple Importance
 //! Sampling", ACM TOG 38(6)). That is right only where every light sample
-//! is paired with a BSDF sample under MIS, as `path` pairs them: set true
-//! for another integrator, the dim regions are never lit.
+//! is paired with a BSDF sample under MIS that can find the map, so it is
+//! never done for other integrators (`ptracer`, `direct` without BSDF
+//! samples) or for a map hidden from indirect rays.
 //!
 //! **Bad maps.** An image that is not twice as wide as tall (within 2 %)
 //! is a load error, since it cannot be latitude–longitude; negative and
@@ -70,8 +71,9 @@ pub struct EnvMapLight {
     pub distribution: u32,
     /// Factor on the image's values.
     pub scale: f32,
-    /// Sample the map minus its mean (see the module docs); `None`: as the
-    /// integrator says, decided when the scene is built.
+    /// Sample the map minus its mean (see the module docs): `Some(false)`
+    /// never; otherwise decided when the scene is built (where the
+    /// integrator and the map's visibility allow it).
     pub mis_compensation: Option<bool>,
     /// World directions to the map's frame (the inverse of `to_world`'s
     /// linear part).

@@ -226,9 +226,10 @@ pub fn build_distributions(
         }
         if let Emitter::EnvMap(env) = e {
             let image = images.get(env.image as usize).ok_or(env.image)?;
-            env.mis_compensation = env
-                .mis_compensation
-                .or(Some(compensated.get(i).copied().unwrap_or(false)));
+            // The map's own `false` turns it off; it is never on where the
+            // scene's integrator or the map's visibility does not allow it.
+            let allowed = compensated.get(i).copied().unwrap_or(false);
+            env.mis_compensation = Some(allowed && env.mis_compensation != Some(false));
             env.distribution = distributions.len() as u32;
             distributions.push(env.sampling_distribution(image));
         }
@@ -543,7 +544,7 @@ pub(crate) mod tests {
         let distributions: Vec<Vec<Distribution2D>> = variants
             .iter_mut()
             .map(|v| {
-                build_distributions(std::slice::from_mut(&mut v.emitter), &v.materials, &[false])
+                build_distributions(std::slice::from_mut(&mut v.emitter), &v.materials, &[true])
                     .unwrap()
             })
             .collect();

@@ -19,8 +19,9 @@
 //! Under MIS compensation (the `mis_compensation` of `path`, `volpath`
 //! and `direct` with BSDF samples,
 //! [`crate::integrator::Integrator::mis_compensation`]) every strategy
-//! leaves `constant` emitters out: their probability is 0, BSDF sampling
-//! alone finds them, and the other emitters share their light samples.
+//! leaves `constant` emitters out (unless hidden from indirect rays):
+//! their probability is 0, BSDF sampling alone finds them, and the other
+//! emitters share their light samples.
 //!
 //! **Parameters of every emitter** (`area` included):
 //!
@@ -184,19 +185,25 @@ impl LightSampler {
                         LightSelection::Power => e.power(ctx, radius) * o.sampling_weight,
                         _ => o.sampling_weight,
                     })
-                    .zip(&left_out)
-                    .map(|(w, &out)| {
-                        if w.is_finite() && !out {
-                            w.max(0.0)
-                        } else {
-                            0.0
-                        }
-                    })
+                    .map(|w| if w.is_finite() { w.max(0.0) } else { 0.0 })
+                    .collect();
+                let kept: Vec<f32> = (weights.iter().zip(&left_out))
+                    .map(|(&w, &out)| if out { 0.0 } else { w })
                     .collect();
                 // All weights zero: fall back to uniform rather than never
-                // sampling lights at all (but never those left out).
-                let uniform: Vec<f32> = left_out.iter().map(|&out| f32::from(!out as u8)).collect();
-                let table = AliasTable::new(&weights).or_else(|| AliasTable::new(&uniform));
+                // sampling lights at all (but never those left out). Only
+                // then: a light of weight 0 beside a left-out one stays
+                // unsampled, as it is without compensation.
+                let table = match AliasTable::new(&weights) {
+                    Some(_) => AliasTable::new(&kept),
+                    None => {
+                        let uniform: Vec<f32> = left_out
+                            .iter()
+                            .map(|&out| f32::from(u8::from(!out)))
+                            .collect();
+                        AliasTable::new(&uniform)
+                    }
+                };
                 Self {
                     selection,
                     table,
