@@ -4,13 +4,11 @@
 //! follow pbrt-v4 chapter A.5 and Shirley & Chiu 1997.
 
 mod alias;
-mod bilinear;
 mod distribution2d;
 mod spherical_rectangle;
 mod spherical_triangle;
 
 pub use alias::AliasTable;
-pub use bilinear::{bilinear_pdf, linear_pdf, sample_bilinear, sample_linear};
 pub use distribution2d::{Distribution1D, Distribution2D};
 pub use spherical_rectangle::{spherical_rectangle_pdf, SphericalRectangle};
 pub use spherical_triangle::SphericalTriangle;

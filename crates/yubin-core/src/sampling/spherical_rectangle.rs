@@ -123,34 +123,6 @@ impl SphericalRectangle {
     }
 }
 
-impl SphericalRectangle {
-    /// The `u` that [`SphericalRectangle::sample`] maps to the point with
-    /// rectangle coordinates `uv` (its inverse): the share of the solid
-    /// angle of the strip from the edge x = x0 to the point's line, and the
-    /// point's place along that line in the sine of its elevation. For the
-    /// density of samples whose `u` was warped first.
-    #[inline]
-    pub fn invert(&self, uv: Vec2) -> Vec2 {
-        let xu = self.x0 + uv.x / self.inv_w;
-        let yv = self.y0 + uv.y / self.inv_l;
-        let strip = LocalFrame {
-            x1: xu,
-            x0: self.x0,
-            y0: self.y0,
-            y1: self.y1,
-            h: self.h,
-            inv_w: self.inv_w,
-            inv_l: self.inv_l,
-        };
-        let ux = Corners::new(&strip).solid_angle() / self.solid_angle;
-        let dist2 = xu * xu + self.h * self.h;
-        let sine = |y: f32| y / (dist2 + y * y).sqrt();
-        let (h0, h1) = (sine(self.y0), sine(self.y1));
-        let uy = (sine(yv) - h0) / (h1 - h0);
-        Vec2::new(ux, uy).clamp(Vec2::ZERO, Vec2::ONE)
-    }
-}
-
 /// The density of [`SphericalRectangle::sample`], 1/Ω, for the same
 /// arguments as [`SphericalRectangle::new`]; `None` where that is.
 #[inline]
@@ -307,27 +279,6 @@ mod tests {
             a.length() < 1e-3 && (b - Vec2::ONE).length() < 1e-3,
             "{a} {b}"
         );
-    }
-
-    /// `invert` undoes `sample`: the rectangle coordinates of a sample
-    /// map back to the `u` that made them.
-    #[test]
-    fn invert_undoes_sample() {
-        let o = Vec3::new(0.3, -0.2, 0.9);
-        let corner = Vec3::new(-0.4, -0.6, 0.2);
-        let ex = Vec3::new(1.2, 0.3, 0.0);
-        let ey = Vec3::new(-0.3, 1.2, 0.5).reject_from(ex).normalize() * 0.8;
-        let sr = SphericalRectangle::new(o, corner, ex, ey).unwrap();
-        let mut rng = Pcg32::new(4, 2);
-        for _ in 0..1000 {
-            let u = rng.next_2d();
-            let (_, uv) = sr.sample(u);
-            let back = sr.invert(uv);
-            assert!(
-                (back - u).abs().max_element() < 2e-3,
-                "{u} -> {uv} -> {back}"
-            );
-        }
     }
 
     #[test]
