@@ -9,7 +9,7 @@
 //! | `rr_depth`      | integer | 5       | Russian roulette starts once a path has this many segments     |
 //! | `hide_emitters` | boolean | false   | emitters seen directly by the camera render black              |
 //! | `light_sampler` | string  | bvh     | how light sampling picks an emitter: `uniform` (Mitsuba's rule, by `sampling_weight`), `power`, `bvh` (yubin) |
-//! | `mis_compensation` | boolean | true | leave to BSDF sampling the light it finds well: `constant` emitters are not light-sampled, `envmap`s sample their excess over their mean (yubin; false: Mitsuba's rule) |
+//! | `mis_compensation` | boolean | true | leave to BSDF sampling the light it finds well: `constant` emitters are not light-sampled, `envmap`s and `preetham`'s sky sample their excess over their mean (yubin; false: Mitsuba's rule) |
 //!
 //! ```xml
 //! <integrator type="path"><integer name="max_depth" value="8"/></integrator>
@@ -28,8 +28,9 @@
 //! chosen for light sampling — cosine-weighted and glossy BSDF samples
 //! find a uniform sky better than uniform directions on the sphere, half of
 //! which point into the surface — and its share of the light samples goes
-//! to the other emitters; an `envmap` samples the excess of its radiance
-//! over its mean, where the sun and bright windows are. Emitters hidden
+//! to the other emitters; an `envmap` (and `preetham`'s sky) samples the
+//! excess of its radiance over its mean, where the sun and bright windows
+//! are. Emitters hidden
 //! from indirect rays (`visible_indirect` false) keep full light sampling,
 //! as BSDF samples cannot find them. The images are the same in the mean;
 //! their noise is lower wherever a sky lights the scene (BENCHMARKS.md).

@@ -235,7 +235,8 @@ pub fn build_distributions(
         }
         if let Emitter::Preetham(sky) = e {
             sky.distribution = distributions.len() as u32;
-            distributions.push(sky.sampling_distribution());
+            distributions
+                .push(sky.sampling_distribution(compensated.get(i).copied().unwrap_or(false)));
         }
     }
     Ok(distributions)

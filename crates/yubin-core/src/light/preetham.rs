@@ -87,6 +87,11 @@
 //! sun is sampled uniformly in its cone. A sample picks the sun or the sky
 //! in proportion to their powers (∫ luminance dω), and both
 //! `sample_direction` and `pdf_direction` give the mixture's density.
+//! Under MIS compensation (`path`'s `mis_compensation`, as for `envmap`)
+//! the table holds the sky's excess over its mean over the sphere, and the
+//! sky's power for the choice is that excess's: BSDF sampling covers the
+//! even part of the sky, light sampling the sun and the bright sky around
+//! it.
 //!
 //! References: A. J. Preetham, P. Shirley, B. Smits, "A Practical Analytic
 //! Model for Daylight", SIGGRAPH 1999 (appendix A: coefficients, zenith
@@ -530,23 +535,38 @@ impl PreethamLight {
         self.radiance_local((self.light_from_world * d).normalize_or_zero())
     }
 
-    /// Tabulates the sky for sampling (see the module docs) and sets
-    /// [`PreethamLight::sun_prob`] from the sun's and the sky's powers.
-    pub fn sampling_distribution(&mut self) -> Distribution2D {
-        let mut weights = vec![0.0f32; TABLE_W * TABLE_H];
-        let mut sky_power = 0.0f64;
+    /// Tabulates the sky for sampling (see the module docs; its excess over
+    /// its mean when `compensated`) and sets [`PreethamLight::sun_prob`]
+    /// from the sun's and the (tabulated) sky's powers.
+    pub fn sampling_distribution(&mut self, compensated: bool) -> Distribution2D {
+        let mut lum = vec![0.0f32; TABLE_W * TABLE_H];
+        let sin_theta = |r: usize| (PI * (r as f32 + 0.5) / TABLE_H as f32).sin();
         for r in 0..TABLE_H / 2 {
             let v = (r as f32 + 0.5) / TABLE_H as f32;
-            let sin_theta = (PI * v).sin();
             for c in 0..TABLE_W {
                 let u = (c as f32 + 0.5) / TABLE_W as f32;
-                let l = luminance(self.sky_radiance_local(latlong::direction_of(Vec2::new(u, v))));
-                weights[r * TABLE_W + c] = l * sin_theta;
-                sky_power += (l * sin_theta) as f64;
+                let d = latlong::direction_of(Vec2::new(u, v));
+                lum[r * TABLE_W + c] = luminance(self.sky_radiance_local(d));
             }
         }
         // dω = 2π² sin θ du dv.
-        sky_power *= 2.0 * (PI as f64).powi(2) / (TABLE_W * TABLE_H) as f64;
+        let cell = 2.0 * (PI as f64).powi(2) / (TABLE_W * TABLE_H) as f64;
+        let power = |offset: f32| -> f64 {
+            (lum.iter().enumerate())
+                .map(|(i, &l)| ((l - offset).max(0.0) * sin_theta(i / TABLE_W)) as f64)
+                .sum::<f64>()
+                * cell
+        };
+        // The mean over the sphere (the ground below the horizon is black).
+        let offset = if compensated {
+            (power(0.0) / (4.0 * PI as f64)) as f32
+        } else {
+            0.0
+        };
+        let mut weights: Vec<f32> = (lum.iter().enumerate())
+            .map(|(i, &l)| (l - offset).max(0.0) * sin_theta(i / TABLE_W))
+            .collect();
+        let sky_power = power(offset);
         let sun_power = luminance(self.sun_radiance) as f64
             * 2.0
             * PI as f64
@@ -649,7 +669,7 @@ pub(crate) mod tests {
 
     fn with_distribution(l: &mut PreethamLight) -> Vec<Distribution2D> {
         l.distribution = 0;
-        vec![l.sampling_distribution()]
+        vec![l.sampling_distribution(false)]
     }
 
     fn sun_at(el: f64, az: f64) -> Vec3 {
