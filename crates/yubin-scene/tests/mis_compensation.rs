@@ -29,6 +29,19 @@ fn write_sky(path: &std::path::Path) {
     write_image(path, &img, &[]).unwrap();
 }
 
+/// A fresh temporary folder named after `tag` with the sky map in it:
+/// the folder and the map's path.
+fn sky_in_temp_dir(tag: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!(
+        "yubin-mis-compensation-{tag}-{}",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let map = dir.join("sky.exr");
+    write_sky(&map);
+    (dir, map)
+}
+
 /// Spheres of rough metal and rough plastic on a diffuse floor, lit by a
 /// map, a constant sky and a small rectangle, rendered by `integrator`
 /// with `mis_compensation` as `compensated`; `extra` adds shapes.
@@ -89,13 +102,7 @@ const FOG: &str = r#"<shape type="sphere">
 /// `integrator` with and without compensation: the same image (Welch's t
 /// per pixel, see `assert_same_image`) and less noise with it.
 fn check_same_image_less_noise(integrator: &str, extra: &str) {
-    let dir = std::env::temp_dir().join(format!(
-        "yubin-mis-compensation-{integrator}-{}",
-        std::process::id()
-    ));
-    std::fs::create_dir_all(&dir).unwrap();
-    let map = dir.join("sky.exr");
-    write_sky(&map);
+    let (dir, map) = sky_in_temp_dir(integrator);
     let on = scene(&map, integrator, true, extra);
     let off = scene(&map, integrator, false, extra);
     assert_same_mean_less_noise(integrator, &on, &off, 0.8);
@@ -160,13 +167,7 @@ fn compensated_skies_in_direct_light_give_the_same_image_with_less_noise() {
 /// asks for compensation itself.
 #[test]
 fn direct_light_sampling_alone_is_not_compensated() {
-    let dir = std::env::temp_dir().join(format!(
-        "yubin-mis-compensation-alone-{}",
-        std::process::id()
-    ));
-    std::fs::create_dir_all(&dir).unwrap();
-    let map = dir.join("sky.exr");
-    write_sky(&map);
+    let (dir, map) = sky_in_temp_dir("alone");
     let light_only = |compensated| {
         scene(&map, "direct", compensated, "").replace(
             "<boolean name=\"mis_compensation\"",
