@@ -34,6 +34,10 @@
 //! from indirect rays (`visible_indirect` false) keep full light sampling,
 //! as BSDF samples cannot find them. The images are the same in the mean;
 //! their noise is lower wherever a sky lights the scene (BENCHMARKS.md).
+//! The exception is a room lit through a small opening by a part of the
+//! sky that is dimmer than the sky's mean: light sampling then no longer
+//! aims at it and BSDF samples seldom find the opening; set
+//! `mis_compensation` to false for such a scene.
 
 use super::max_depth_param;
 use super::{environment_radiance, sample_light, surface_emission, Integrator, RayOrigin};
