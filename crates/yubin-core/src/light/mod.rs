@@ -210,9 +210,9 @@ pub(crate) fn power_mean(t: crate::texture::Tex, m: &crate::material::Materials)
 /// (`Scene::light_distributions`) and points each emitter at its own, and
 /// fits projectors to their image's aspect ratio;
 /// `SceneBuilder::build` calls it. `compensated[i]`: emitter `i` may leave
-/// to BSDF sampling what it finds well (an `envmap` that does not say
-/// otherwise then samples its excess over its mean). Fails with the index
-/// of an image that is not in `images`.
+/// to BSDF sampling what it finds well (an `envmap` that does not turn
+/// that off, and `preetham`'s sky, then sample their excess over their
+/// mean). Fails with the index of an image that is not in `images`.
 pub fn build_distributions(
     emitters: &mut [Emitter],
     materials: &crate::material::Materials,
