@@ -146,10 +146,10 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
     /// Whether light sampling may leave to BSDF sampling the light that
     /// BSDF sampling finds well (MIS compensation: `constant` emitters are
     /// not light-sampled, `envmap`s and `preetham`'s sky sample their excess
-    /// over their mean; see [`crate::light::selection`]). Only an integrator that follows
-    /// every light sample with a BSDF sample from the same vertex, and
-    /// weighs the two by MIS, may say yes: where the light's density is
-    /// then zero, BSDF sampling alone finds the light.
+    /// over their mean; see [`crate::light::selection`]). Only an integrator
+    /// that follows every light sample with a BSDF sample from the same
+    /// vertex, and weighs the two by MIS, may say yes: where the light's
+    /// density is then zero, BSDF sampling alone finds the light.
     fn mis_compensation(&self) -> bool {
         false
     }

@@ -30,9 +30,8 @@
 //! which point into the surface — and its share of the light samples goes
 //! to the other emitters; an `envmap` (and `preetham`'s sky) samples the
 //! excess of its radiance over its mean, where the sun and bright windows
-//! are. Emitters hidden
-//! from indirect rays (`visible_indirect` false) keep full light sampling,
-//! as BSDF samples cannot find them. The images are the same in the mean;
+//! are. Emitters hidden from indirect rays (`visible_indirect` false) keep
+//! full light sampling, as BSDF samples cannot find them. The images are the same in the mean;
 //! their noise is lower wherever a sky lights the scene (BENCHMARKS.md).
 //! The exception is a room lit through a small opening by a part of the
 //! sky that is dimmer than the sky's mean: light sampling then no longer

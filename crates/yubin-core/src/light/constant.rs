@@ -12,9 +12,9 @@
 //! Sampled uniformly over the sphere of directions (density 1/4π) — except
 //! under the MIS compensation of `path`, `volpath` and `direct` with BSDF
 //! samples (their default), which leaves it to BSDF and phase sampling
-//! alone unless it is hidden from indirect rays (`visible_indirect`): cosine-weighted and glossy BSDF samples find a uniform
-//! sky better than uniform directions, half of which point into the
-//! surface.
+//! alone unless it is hidden from indirect rays (`visible_indirect`):
+//! cosine-weighted and glossy BSDF samples find a uniform sky better than
+//! uniform directions, half of which point into the surface.
 
 use super::{EmitterContext, EmitterModel, EmitterSample};
 use crate::params::{ColorKind, ParamError, Params};

@@ -38,9 +38,7 @@ pub use envmap::EnvMapLight;
 pub use point::PointLight;
 pub use preetham::PreethamLight;
 pub use projector::ProjectorLight;
-pub use selection::{
-    left_to_bsdf_sampling, EmitterOptions, LightChoice, LightSampler, LightSelection,
-};
+pub use selection::{EmitterOptions, LightChoice, LightSampler, LightSelection};
 pub use spot::SpotLight;
 
 use crate::interaction::SurfaceInteraction;
@@ -221,6 +219,7 @@ pub fn build_distributions(
     let images = &materials.images;
     let mut distributions = Vec::new();
     for (i, e) in emitters.iter_mut().enumerate() {
+        let allowed = compensated.get(i).copied().unwrap_or(false);
         if let Emitter::Projector(l) = e {
             l.fit_image_plane(materials);
         }
@@ -228,15 +227,13 @@ pub fn build_distributions(
             let image = images.get(env.image as usize).ok_or(env.image)?;
             // The map's own `false` turns it off; it is never on where the
             // scene's integrator or the map's visibility does not allow it.
-            let allowed = compensated.get(i).copied().unwrap_or(false);
             env.mis_compensation = Some(allowed && env.mis_compensation != Some(false));
             env.distribution = distributions.len() as u32;
             distributions.push(env.sampling_distribution(image));
         }
         if let Emitter::Preetham(sky) = e {
             sky.distribution = distributions.len() as u32;
-            distributions
-                .push(sky.sampling_distribution(compensated.get(i).copied().unwrap_or(false)));
+            distributions.push(sky.sampling_distribution(allowed));
         }
     }
     Ok(distributions)

@@ -87,7 +87,8 @@
 //! sun is sampled uniformly in its cone. A sample picks the sun or the sky
 //! in proportion to their powers (∫ luminance dω), and both
 //! `sample_direction` and `pdf_direction` give the mixture's density.
-//! Under MIS compensation (`path`'s `mis_compensation`, as for `envmap`)
+//! Under MIS compensation (the integrator's `mis_compensation`, as for
+//! `envmap`)
 //! the table holds the sky's excess over its mean over the sphere, and the
 //! sky's power for the choice is that excess's: BSDF sampling covers the
 //! even part of the sky, light sampling the sun and the bright sky around
@@ -549,24 +550,21 @@ impl PreethamLight {
                 lum[r * TABLE_W + c] = luminance(self.sky_radiance_local(d));
             }
         }
-        // dω = 2π² sin θ du dv.
-        let cell = 2.0 * (PI as f64).powi(2) / (TABLE_W * TABLE_H) as f64;
-        let power = |offset: f32| -> f64 {
-            (lum.iter().enumerate())
-                .map(|(i, &l)| ((l - offset).max(0.0) * sin_theta(i / TABLE_W)) as f64)
-                .sum::<f64>()
-                * cell
+        // Luminance above `offset` × sin θ per cell, and its power
+        // (dω = 2π² sin θ du dv).
+        let weigh = |offset: f32| -> (Vec<f32>, f64) {
+            let weights: Vec<f32> = (lum.iter().enumerate())
+                .map(|(i, &l)| (l - offset).max(0.0) * sin_theta(i / TABLE_W))
+                .collect();
+            let cell = 2.0 * (PI as f64).powi(2) / (TABLE_W * TABLE_H) as f64;
+            let power = weights.iter().map(|&w| w as f64).sum::<f64>() * cell;
+            (weights, power)
         };
-        // The mean over the sphere (the ground below the horizon is black).
-        let offset = if compensated {
-            (power(0.0) / (4.0 * PI as f64)) as f32
-        } else {
-            0.0
-        };
-        let mut weights: Vec<f32> = (lum.iter().enumerate())
-            .map(|(i, &l)| (l - offset).max(0.0) * sin_theta(i / TABLE_W))
-            .collect();
-        let sky_power = power(offset);
+        let (mut weights, mut sky_power) = weigh(0.0);
+        if compensated {
+            // The mean over the sphere (the ground below the horizon is black).
+            (weights, sky_power) = weigh((sky_power / (4.0 * PI as f64)) as f32);
+        }
         let sun_power = luminance(self.sun_radiance) as f64
             * 2.0
             * PI as f64

@@ -158,7 +158,7 @@ impl LightSampler {
     /// Builds the sampler for `emitters` with their `options`; `ctx` sees
     /// the scene, whose geometry has bounding-sphere radius `radius`;
     /// `compensated[i]`: emitter `i` may leave to BSDF sampling what it
-    /// finds well ([`left_to_bsdf_sampling`]).
+    /// finds well (`left_to_bsdf_sampling`).
     pub fn new(
         selection: LightSelection,
         emitters: &[Emitter],
@@ -261,6 +261,6 @@ impl LightSampler {
 /// Whether light sampling leaves emitter `e` to BSDF sampling alone when
 /// it may leave what BSDF sampling finds well (`compensated`): a
 /// `constant` emitter, whose excess over its mean is nothing.
-pub fn left_to_bsdf_sampling(e: &Emitter, compensated: bool) -> bool {
+pub(crate) fn left_to_bsdf_sampling(e: &Emitter, compensated: bool) -> bool {
     compensated && matches!(e, Emitter::Constant(_))
 }
