@@ -107,10 +107,10 @@ impl BsdfModel for BlendBsdf {
                 ..s
             });
         }
-        let pdf = self.pdf(m, ctx, si, wo, s.wi);
+        let (value, pdf) = self.eval_pdf(m, ctx, si, wo, s.wi);
         (pdf > 0.0).then(|| BsdfSample {
             pdf,
-            weight: self.eval(m, ctx, si, wo, s.wi) / pdf,
+            weight: value / pdf,
             ..s
         })
     }
@@ -139,6 +139,20 @@ impl BsdfModel for BlendBsdf {
         let w = self.w(m, si);
         self.part(m, 0).pdf(m, ctx, si, wo, wi) * (1.0 - w)
             + self.part(m, 1).pdf(m, ctx, si, wo, wi) * w
+    }
+
+    fn eval_pdf(
+        &self,
+        m: &Materials,
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Rgb, f32) {
+        let w = self.w(m, si);
+        let (f0, p0) = self.part(m, 0).eval_pdf(m, ctx, si, wo, wi);
+        let (f1, p1) = self.part(m, 1).eval_pdf(m, ctx, si, wo, wi);
+        (f0 * (1.0 - w) + f1 * w, p0 * (1.0 - w) + p1 * w)
     }
 }
 

@@ -124,6 +124,19 @@ impl BsdfModel for Mask {
     ) -> f32 {
         self.nested(m).pdf(m, ctx, si, wo, wi) * self.alpha(m, si)
     }
+
+    fn eval_pdf(
+        &self,
+        m: &Materials,
+        ctx: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Rgb, f32) {
+        let alpha = self.alpha(m, si);
+        let (f, pdf) = self.nested(m).eval_pdf(m, ctx, si, wo, wi);
+        (f * alpha, pdf * alpha)
+    }
 }
 
 #[cfg(test)]

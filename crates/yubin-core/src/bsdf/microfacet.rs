@@ -587,9 +587,11 @@ pub(crate) fn erfcx(z: f32) -> f32 {
         + t * (-0.284_496_72 + t * (1.421_413_8 + t * (-1.453_152_1 + t * 1.061_405_4))))
 }
 
-/// Inverse error function on (−1, 1) (Giles 2010, "Approximating the
-/// erfinv function", single-precision version), refined by one Newton step
-/// on [`erfc`] so that it inverts the same erf the densities use.
+/// Inverse error function on (−1, 1): Giles 2010, "Approximating the
+/// erfinv function" (GPU Computing Gems Jade, ch. 10), single-precision
+/// version, whose relative error is below 3·10⁻⁷ (Dr.Jit's `erfinv` is the
+/// same approximation). Sampling a Gaussian through it deforms the
+/// distribution by less than f32 rounding of its density does.
 pub(crate) fn erfinv(x: f32) -> f32 {
     let x = x.clamp(-1.0 + f32::EPSILON, 1.0 - f32::EPSILON);
     let mut w = -((1.0 - x) * (1.0 + x)).ln();
@@ -616,15 +618,7 @@ pub(crate) fn erfinv(x: f32) -> f32 {
         p = 1.001_674 + p * w;
         2.832_976_8 + p * w
     };
-    let y = p * x;
-    // erf(y) − x with erf = 1 − erfc; erf'(y) = 2/√π e^{−y²}.
-    let err = (1.0 - erfc(y)) - x;
-    let y2 = y - err / (2.0 / PI.sqrt() * (-y * y).exp());
-    if y2.is_finite() {
-        y2
-    } else {
-        y
-    }
+    p * x
 }
 
 /// The roughness parameters of a rough BSDF, as read from the scene;

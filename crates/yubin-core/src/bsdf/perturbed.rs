@@ -120,6 +120,27 @@ pub(super) fn pdf(
     nested.pdf(m, ctx, si, wo_p, wi_p)
 }
 
+/// [`eval`] and [`pdf`] at once, with one perturbed frame and the nested
+/// BSDF's fused form.
+#[inline]
+pub(super) fn eval_pdf(
+    p: &Perturbation,
+    nested: &Bsdf,
+    m: &Materials,
+    ctx: &BsdfContext,
+    si: &SurfaceInteraction,
+    wo: Vec3,
+    wi: Vec3,
+) -> (Rgb, f32) {
+    let frame = p.frame(wo);
+    let (wo_p, wi_p) = (frame.to_local(wo), frame.to_local(wi));
+    if !consistent(wi, wi_p) || !consistent(wo, wo_p) {
+        return (Rgb::ZERO, 0.0);
+    }
+    let (f, pdf) = nested.eval_pdf(m, ctx, si, wo_p, wi_p);
+    (f * terminator_shadowing(frame.n, wi), pdf)
+}
+
 /// A sample of `nested` in the perturbed frame, returned in the original
 /// frame.
 #[inline]
@@ -200,6 +221,19 @@ macro_rules! perturbed_bsdf {
             ) -> f32 {
                 let nested = &m.bsdfs[self.nested as usize];
                 $crate::bsdf::perturbed::pdf(&self.perturbation(m, si), nested, m, ctx, si, wo, wi)
+            }
+
+            fn eval_pdf(
+                &self,
+                m: &Materials,
+                ctx: &$crate::bsdf::BsdfContext,
+                si: &SurfaceInteraction,
+                wo: glam::Vec3,
+                wi: glam::Vec3,
+            ) -> ($crate::Rgb, f32) {
+                let nested = &m.bsdfs[self.nested as usize];
+                let p = self.perturbation(m, si);
+                $crate::bsdf::perturbed::eval_pdf(&p, nested, m, ctx, si, wo, wi)
             }
         }
     };

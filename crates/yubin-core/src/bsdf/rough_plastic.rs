@@ -363,7 +363,8 @@ impl BsdfModel for RoughPlastic {
                 BsdfFlags::DIFFUSE_REFLECTION,
             )
         };
-        let pdf = self.pdf(m, ctx, si, wo, wi);
+        // Value and density share the half vector, D and G1(wo).
+        let (value, pdf) = self.eval_pdf(m, ctx, si, wo, wi);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
@@ -372,7 +373,7 @@ impl BsdfModel for RoughPlastic {
             pdf,
             eta: 1.0,
             sampled,
-            weight: self.eval(m, ctx, si, wo, wi) / pdf,
+            weight: value / pdf,
         })
     }
 
