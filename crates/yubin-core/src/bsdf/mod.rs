@@ -340,10 +340,12 @@ impl Bsdf {
 
     /// Computes what the BSDF needs from the scene's tables, once, as it
     /// is added to them ([`Materials::add_bsdf`]): `roughplastic`'s
-    /// transmittance tables.
+    /// transmittance tables, the plastics' specular sampling weight.
     pub fn prepare(&mut self, m: &mut Materials) {
-        if let Bsdf::RoughPlastic(b) = self {
-            b.prepare(m);
+        match self {
+            Bsdf::RoughPlastic(b) => b.prepare(m),
+            Bsdf::Plastic(b) => b.prepare(m),
+            _ => {}
         }
     }
 }

@@ -63,6 +63,10 @@ pub struct Plastic {
     pub fdr_int: f32,
     /// Bounces inside the coating are tinted by the base each time.
     pub nonlinear: bool,
+    /// [`specular_sampling_weight`] of the two reflectances, set when the
+    /// BSDF is added to a [`Materials`] (a constant of the BSDF, asked at
+    /// every sample).
+    pub specular_weight: f32,
 }
 
 impl Plastic {
@@ -74,6 +78,10 @@ impl Plastic {
             eta,
             fdr_int: fresnel_diffuse_reflectance(1.0 / eta),
             nonlinear,
+            specular_weight: constant_specular_sampling_weight(
+                Tex::value(1.0),
+                Tex::Const(diffuse),
+            ),
         }
     }
 
@@ -94,13 +102,29 @@ impl Plastic {
             eta,
             fdr_int: fresnel_diffuse_reflectance(1.0 / eta),
             nonlinear: p.boolean_or("nonlinear", false)?,
-        })
+            specular_weight: f32::NAN,
+        }
+        .with_constant_weight())
+    }
+
+    /// With the specular sampling weight set where it needs no texture.
+    fn with_constant_weight(mut self) -> Self {
+        self.specular_weight =
+            constant_specular_sampling_weight(self.specular_reflectance, self.diffuse_reflectance);
+        self
+    }
+
+    /// Computes the specular sampling weight from the reflectances in `m`
+    /// ([`Materials::add_bsdf`]).
+    pub(crate) fn prepare(&mut self, m: &Materials) {
+        self.specular_weight =
+            specular_sampling_weight(m, self.specular_reflectance, self.diffuse_reflectance);
     }
 
     /// Probability of sampling the specular lobe when F(θo) = `f`.
     #[inline]
-    fn prob_specular(&self, m: &Materials, f: f32) -> f32 {
-        let w = specular_sampling_weight(m, self.specular_reflectance, self.diffuse_reflectance);
+    fn prob_specular(&self, f: f32) -> f32 {
+        let w = self.specular_weight;
         let (ps, pd) = (f * w, (1.0 - f) * (1.0 - w));
         ps / (ps + pd)
     }
@@ -127,7 +151,21 @@ pub(super) fn specular_sampling_weight(m: &Materials, specular: Tex, diffuse: Te
         Tex::Const(c) => (c.x + c.y + c.z) / 3.0,
         Tex::Texture(_) => t.mean(m),
     };
-    let (s, d) = (mean(specular), mean(diffuse));
+    weight_of_means(mean(specular), mean(diffuse))
+}
+
+/// [`specular_sampling_weight`] where both reflectances are constants;
+/// NaN (to be set when the BSDF is prepared) where one is a texture.
+pub(super) fn constant_specular_sampling_weight(specular: Tex, diffuse: Tex) -> f32 {
+    match (specular, diffuse) {
+        (Tex::Const(s), Tex::Const(d)) => {
+            weight_of_means((s.x + s.y + s.z) / 3.0, (d.x + d.y + d.z) / 3.0)
+        }
+        _ => f32::NAN,
+    }
+}
+
+fn weight_of_means(s: f32, d: f32) -> f32 {
     if s + d > 0.0 {
         s / (s + d)
     } else {
@@ -184,7 +222,7 @@ impl BsdfModel for Plastic {
             return None;
         }
         let f_o = fresnel_dielectric(wo.z, self.eta).0;
-        let p_spec = self.prob_specular(m, f_o);
+        let p_spec = self.prob_specular(f_o);
         if u1 < p_spec {
             return Some(BsdfSample {
                 wi: reflect(wo),
@@ -233,7 +271,7 @@ impl BsdfModel for Plastic {
     #[inline]
     fn pdf(
         &self,
-        m: &Materials,
+        _: &Materials,
         _: &BsdfContext,
         _: &SurfaceInteraction,
         wo: Vec3,
@@ -243,7 +281,7 @@ impl BsdfModel for Plastic {
             return 0.0;
         }
         let f_o = fresnel_dielectric(wo.z, self.eta).0;
-        (1.0 - self.prob_specular(m, f_o)) * cosine_hemisphere_pdf(wi)
+        (1.0 - self.prob_specular(f_o)) * cosine_hemisphere_pdf(wi)
     }
 }
 
@@ -295,15 +333,24 @@ pub(crate) mod tests {
         let textured = {
             let mut p = Plastic::new(Rgb::ZERO, BK7_AIR, true);
             p.diffuse_reflectance = Tex::Texture(0);
-            let mut v = Variant::last("plastic (checkerboard texture)", vec![Bsdf::Plastic(p)]);
-            v.m.textures.push(crate::texture::Texture::Checkerboard(
+            // Textures first: the BSDF's sampling weight reads their mean.
+            let mut m = Materials::default();
+            m.textures.push(crate::texture::Texture::Checkerboard(
                 crate::texture::Checkerboard {
                     color0: Tex::Const(Rgb::new(0.9, 0.5, 0.1)),
                     color1: Tex::value(0.2),
                     to_uv: glam::Affine2::IDENTITY,
                 },
             ));
-            v
+            let id = m.add_bsdf(Bsdf::Plastic(p)) as usize;
+            Variant {
+                name: "plastic (checkerboard texture)".into(),
+                m,
+                id,
+                lossless: false,
+                reciprocal: true,
+                energy_conserving: true,
+            }
         };
         vec![
             Variant::last(

@@ -53,7 +53,7 @@
 
 use super::fresnel::{fresnel_dielectric, reflect_m, refract_m};
 use super::microfacet::{Microfacet, MicrofacetType, Roughness};
-use super::plastic::{relative_ior, specular_sampling_weight};
+use super::plastic::{constant_specular_sampling_weight, relative_ior, specular_sampling_weight};
 use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
@@ -247,6 +247,9 @@ pub struct RoughPlastic {
     /// Index in [`Materials::rough_transmittance`], set when the BSDF is
     /// added to the tables ([`Materials::add_bsdf`]).
     pub transmittance: u32,
+    /// [`specular_sampling_weight`] of the two reflectances, set with
+    /// `transmittance` (a constant of the BSDF, asked at every sample).
+    pub specular_weight: f32,
 }
 
 impl RoughPlastic {
@@ -260,6 +263,10 @@ impl RoughPlastic {
             eta,
             nonlinear,
             transmittance: UNPREPARED,
+            specular_weight: constant_specular_sampling_weight(
+                Tex::value(1.0),
+                Tex::Const(diffuse),
+            ),
         }
     }
 
@@ -284,7 +291,16 @@ impl RoughPlastic {
             )?,
             nonlinear: p.boolean_or("nonlinear", false)?,
             transmittance: UNPREPARED,
-        })
+            specular_weight: f32::NAN,
+        }
+        .with_constant_weight())
+    }
+
+    /// With the specular sampling weight set where it needs no texture.
+    fn with_constant_weight(mut self) -> Self {
+        self.specular_weight =
+            constant_specular_sampling_weight(self.specular_reflectance, self.diffuse_reflectance);
+        self
     }
 
     /// Computes (or finds) the transmittance tables in `m` and records
@@ -303,6 +319,8 @@ impl RoughPlastic {
             m.rough_transmittance.len() - 1
         });
         self.transmittance = index as u32;
+        self.specular_weight =
+            specular_sampling_weight(m, self.specular_reflectance, self.diffuse_reflectance);
     }
 
     #[inline]
@@ -328,8 +346,8 @@ impl RoughPlastic {
 
     /// Probability of sampling the specular lobe when T(θo) = `t_o`.
     #[inline]
-    fn prob_specular(&self, m: &Materials, t_o: f32) -> f32 {
-        let w = specular_sampling_weight(m, self.specular_reflectance, self.diffuse_reflectance);
+    fn prob_specular(&self, t_o: f32) -> f32 {
+        let w = self.specular_weight;
         let (ps, pd) = ((1.0 - t_o) * w, t_o * (1.0 - w));
         ps / (ps + pd)
     }
@@ -354,7 +372,7 @@ impl BsdfModel for RoughPlastic {
             return None;
         }
         let t_o = self.tables(m).external_at(wo.z);
-        let (wi, sampled) = if u1 < self.prob_specular(m, t_o) {
+        let (wi, sampled) = if u1 < self.prob_specular(t_o) {
             let (mf, _) = self.roughness.at(m, si).sample(wo, u2);
             (reflect_m(wo, mf), BsdfFlags::GLOSSY_REFLECTION)
         } else {
@@ -409,7 +427,7 @@ impl BsdfModel for RoughPlastic {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let p_spec = self.prob_specular(m, self.tables(m).external_at(wo.z));
+        let p_spec = self.prob_specular(self.tables(m).external_at(wo.z));
         let h = (wo + wi).normalize();
         // The half-vector's density, times the Jacobian 1 / (4 wi·h) of
         // reflection about it.
@@ -436,7 +454,7 @@ impl BsdfModel for RoughPlastic {
         let specular = self.specular_reflectance.eval(m, si) * (f * dg / (4.0 * wo.z));
         let external_wo = self.tables(m).external_at(wo.z);
         let value = specular + self.diffuse_eval(m, si, external_wo, wi);
-        let p_spec = self.prob_specular(m, external_wo);
+        let p_spec = self.prob_specular(external_wo);
         let pdf = p_spec * (pdf_h / (4.0 * wi.dot(h))) + (1.0 - p_spec) * cosine_hemisphere_pdf(wi);
         (value, pdf)
     }
