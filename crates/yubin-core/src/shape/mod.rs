@@ -435,6 +435,7 @@ pub(crate) fn unit_square_bounds(to_world: &Transform) -> Bounds3 {
 
 /// Builds the interaction of a hit on a surface given local geometry in
 /// world space; shared by the analytic shapes.
+#[inline]
 pub(crate) fn make_interaction(
     ray: &Ray,
     t: f32,
