@@ -627,6 +627,7 @@ impl Scene {
         })
     }
 
+    #[inline]
     fn interaction(&self, ray: &Ray, closest: &Ray, h: HitRecord) -> SurfaceInteraction {
         let shape = &self.shapes[h.shape as usize];
         let mut si = match h.instance {
