@@ -82,6 +82,15 @@ fn terminator_shadowing(n: Vec3, wi: Vec3) -> f32 {
     }
 }
 
+/// The perturbed frame for `wo` with `wo` and `wi` in it, where both stay
+/// on the sides of the surface they were on (else no light passes).
+#[inline]
+fn perturbed_pair(p: &Perturbation, wo: Vec3, wi: Vec3) -> Option<(Frame, Vec3, Vec3)> {
+    let frame = p.frame(wo);
+    let (wo_p, wi_p) = (frame.to_local(wo), frame.to_local(wi));
+    (consistent(wi, wi_p) && consistent(wo, wo_p)).then_some((frame, wo_p, wi_p))
+}
+
 /// `nested`'s value in the perturbed frame.
 #[inline]
 pub(super) fn eval(
@@ -93,11 +102,9 @@ pub(super) fn eval(
     wo: Vec3,
     wi: Vec3,
 ) -> Rgb {
-    let frame = p.frame(wo);
-    let (wo_p, wi_p) = (frame.to_local(wo), frame.to_local(wi));
-    if !consistent(wi, wi_p) || !consistent(wo, wo_p) {
+    let Some((frame, wo_p, wi_p)) = perturbed_pair(p, wo, wi) else {
         return Rgb::ZERO;
-    }
+    };
     nested.eval(m, ctx, si, wo_p, wi_p) * terminator_shadowing(frame.n, wi)
 }
 
@@ -112,11 +119,9 @@ pub(super) fn pdf(
     wo: Vec3,
     wi: Vec3,
 ) -> f32 {
-    let frame = p.frame(wo);
-    let (wo_p, wi_p) = (frame.to_local(wo), frame.to_local(wi));
-    if !consistent(wi, wi_p) || !consistent(wo, wo_p) {
+    let Some((_, wo_p, wi_p)) = perturbed_pair(p, wo, wi) else {
         return 0.0;
-    }
+    };
     nested.pdf(m, ctx, si, wo_p, wi_p)
 }
 
@@ -132,11 +137,9 @@ pub(super) fn eval_pdf(
     wo: Vec3,
     wi: Vec3,
 ) -> (Rgb, f32) {
-    let frame = p.frame(wo);
-    let (wo_p, wi_p) = (frame.to_local(wo), frame.to_local(wi));
-    if !consistent(wi, wi_p) || !consistent(wo, wo_p) {
+    let Some((frame, wo_p, wi_p)) = perturbed_pair(p, wo, wi) else {
         return (Rgb::ZERO, 0.0);
-    }
+    };
     let (f, pdf) = nested.eval_pdf(m, ctx, si, wo_p, wi_p);
     (f * terminator_shadowing(frame.n, wi), pdf)
 }
