@@ -203,6 +203,16 @@ impl Microfacet {
     /// of 0 means no usable sample.
     #[inline]
     pub fn sample(&self, wo: Vec3, u: Vec2) -> (Vec3, f32) {
+        match self.sample_normal(wo, u) {
+            Some(m) => (m, self.pdf(wo, m)),
+            None => (Vec3::Z, 0.0),
+        }
+    }
+
+    /// [`Microfacet::sample`]'s normal without its density; `None` for no
+    /// usable sample.
+    #[inline]
+    fn sample_normal(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
         let m = if self.samples_visible() {
             match self.kind {
                 MicrofacetType::Ggx => self.sample_visible_ggx(wo, u),
@@ -212,10 +222,7 @@ impl Microfacet {
         } else {
             self.sample_all(u)
         };
-        if !m.is_finite() {
-            return (Vec3::Z, 0.0);
-        }
-        (m, self.pdf(wo, m))
+        m.is_finite().then_some(m)
     }
 
     /// Density of [`Microfacet::sample`] per solid angle of `m`.
@@ -328,15 +335,28 @@ impl Microfacet {
     }
 
     /// [`Microfacet::sample`] at every node of the tensor grid
-    /// `ux` × `uy` (`ux` outer), the same values as node by node; for
-    /// visible Beckmann normals the slope solve of each `ux` is shared by
-    /// its whole row (quadratures over the sampler's square, such as
-    /// `roughplastic`'s tables, call this).
+    /// `ux` × `uy` (`ux` outer), the same values as node by node.
     pub fn sample_grid(&self, wo: Vec3, ux: &[f32], uy: &[f32]) -> Vec<(Vec3, f32)> {
+        (self.sample_grid_normals(wo, ux, uy).into_iter())
+            .map(|m| match m {
+                Some(m) => (m, self.pdf(wo, m)),
+                None => (Vec3::Z, 0.0),
+            })
+            .collect()
+    }
+
+    /// The normals of [`Microfacet::sample_grid`] without their densities
+    /// (`None`: no usable sample); for visible Beckmann normals the slope
+    /// solve of each `ux` is shared by its whole row (quadratures over the
+    /// sampler's square, such as `roughplastic`'s tables, call this).
+    pub fn sample_grid_normals(&self, wo: Vec3, ux: &[f32], uy: &[f32]) -> Vec<Option<Vec3>> {
         if !(self.samples_visible() && self.kind == MicrofacetType::Beckmann) {
             return ux
                 .iter()
-                .flat_map(|&x| uy.iter().map(move |&y| self.sample(wo, Vec2::new(x, y))))
+                .flat_map(|&x| {
+                    uy.iter()
+                        .map(move |&y| self.sample_normal(wo, Vec2::new(x, y)))
+                })
                 .collect();
         }
         let frame = BeckmannVisibleFrame::new(self, wo);
@@ -346,11 +366,7 @@ impl Microfacet {
             let sx = beckmann_visible_slope_x(frame.cos_theta, frame.sin_theta, x);
             for &sy in &ys {
                 let m = frame.normal(self, Vec2::new(sx, sy));
-                out.push(if m.is_finite() {
-                    (m, self.pdf(wo, m))
-                } else {
-                    (Vec3::Z, 0.0)
-                });
+                out.push(m.is_finite().then_some(m));
             }
         }
         out

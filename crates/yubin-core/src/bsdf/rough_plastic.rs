@@ -174,31 +174,44 @@ fn visible_normal_integral(distr: &Microfacet, w: Vec3, eta: f32, g: impl Fn(Vec
     let rule = if eta > 1.0 { &*RULE_32 } else { &*RULE_128 };
     let visible = distr.samples_visible();
     let nodes: Vec<f32> = rule.iter().map(|&(x, _)| (0.5 * x + 0.5) as f32).collect();
+    if visible {
+        // Each node is a visible normal drawn by inverting the CDF: the
+        // rule weighs it alone (its density is not needed).
+        let normals = distr.sample_grid_normals(w, &nodes, &nodes);
+        let mut sum = 0.0f64;
+        for (i, &(_, wx)) in rule.iter().enumerate() {
+            for (j, &(_, wy)) in rule.iter().enumerate() {
+                if let Some(m) = normals[i * rule.len() + j].filter(|m| seen_from(w, *m)) {
+                    sum += f64::from(g(m)) * wx * wy;
+                }
+            }
+        }
+        // The square has area 1, the rule's domain area 4.
+        return (0.25 * sum) as f32;
+    }
     let samples = distr.sample_grid(w, &nodes, &nodes);
     let (mut sum, mut total) = (0.0f64, 0.0f64);
     for (i, &(_, wx)) in rule.iter().enumerate() {
         for (j, &(_, wy)) in rule.iter().enumerate() {
             let (m, pdf) = samples[i * rule.len() + j];
             if pdf > 0.0 {
-                let ratio = if visible {
-                    1.0
-                } else {
-                    f64::from(distr.visible_pdf(w, m)) / f64::from(pdf)
-                };
+                let ratio = f64::from(distr.visible_pdf(w, m)) / f64::from(pdf);
                 sum += f64::from(g(m)) * ratio * wx * wy;
                 total += ratio * wx * wy;
             }
         }
     }
-    if !visible {
-        return if total > 0.0 {
-            (sum / total) as f32
-        } else {
-            0.0
-        };
+    if total > 0.0 {
+        (sum / total) as f32
+    } else {
+        0.0
     }
-    // The square has area 1, the rule's domain area 4.
-    (0.25 * sum) as f32
+}
+
+/// Whether the facet `m` faces `w` from above: where the visible normals'
+/// density is positive.
+fn seen_from(w: Vec3, m: Vec3) -> bool {
+    m.z > 0.0 && w.dot(m) * w.z > 0.0
 }
 
 /// The two Gauss–Legendre rules the tables use, computed once.
