@@ -125,7 +125,7 @@ impl Phong {
     /// Probability of sampling the specular lobe.
     #[inline]
     fn prob_specular(&self, m: &Materials) -> f32 {
-        specular_sampling_weight(m, self.specular_reflectance, self.diffuse_reflectance)
+        specular_sampling_weight(Some(m), self.specular_reflectance, self.diffuse_reflectance)
     }
 }
 

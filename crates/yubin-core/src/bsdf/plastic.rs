@@ -78,10 +78,7 @@ impl Plastic {
             eta,
             fdr_int: fresnel_diffuse_reflectance(1.0 / eta),
             nonlinear,
-            specular_weight: constant_specular_sampling_weight(
-                Tex::value(1.0),
-                Tex::Const(diffuse),
-            ),
+            specular_weight: specular_sampling_weight(None, Tex::value(1.0), Tex::Const(diffuse)),
         }
     }
 
@@ -110,7 +107,7 @@ impl Plastic {
     /// With the specular sampling weight set where it needs no texture.
     fn with_constant_weight(mut self) -> Self {
         self.specular_weight =
-            constant_specular_sampling_weight(self.specular_reflectance, self.diffuse_reflectance);
+            specular_sampling_weight(None, self.specular_reflectance, self.diffuse_reflectance);
         self
     }
 
@@ -118,7 +115,7 @@ impl Plastic {
     /// ([`Materials::add_bsdf`]).
     pub(crate) fn prepare(&mut self, m: &Materials) {
         self.specular_weight =
-            specular_sampling_weight(m, self.specular_reflectance, self.diffuse_reflectance);
+            specular_sampling_weight(Some(m), self.specular_reflectance, self.diffuse_reflectance);
     }
 
     /// Probability of sampling the specular lobe when F(θo) = `f`.
@@ -145,31 +142,18 @@ impl Plastic {
 
 /// Mitsuba's split between specular and diffuse samples: s̄ / (s̄ + d̄) of
 /// the textures' means (a constant colour's mean is its channel average,
-/// as in Mitsuba's RGB mode; a texture's is [`Tex::mean`]).
-pub(super) fn specular_sampling_weight(m: &Materials, specular: Tex, diffuse: Tex) -> f32 {
+/// as in Mitsuba's RGB mode; a texture's is [`Tex::mean`], read from `m`).
+/// NaN where a texture's mean is asked without `m` (a BSDF not yet added
+/// to its materials).
+pub(super) fn specular_sampling_weight(m: Option<&Materials>, specular: Tex, diffuse: Tex) -> f32 {
     let mean = |t: Tex| match t {
-        Tex::Const(c) => (c.x + c.y + c.z) / 3.0,
-        Tex::Texture(_) => t.mean(m),
+        Tex::Const(c) => Some((c.x + c.y + c.z) / 3.0),
+        Tex::Texture(_) => m.map(|m| t.mean(m)),
     };
-    weight_of_means(mean(specular), mean(diffuse))
-}
-
-/// [`specular_sampling_weight`] where both reflectances are constants;
-/// NaN (to be set when the BSDF is prepared) where one is a texture.
-pub(super) fn constant_specular_sampling_weight(specular: Tex, diffuse: Tex) -> f32 {
-    match (specular, diffuse) {
-        (Tex::Const(s), Tex::Const(d)) => {
-            weight_of_means((s.x + s.y + s.z) / 3.0, (d.x + d.y + d.z) / 3.0)
-        }
+    match (mean(specular), mean(diffuse)) {
+        (Some(s), Some(d)) if s + d > 0.0 => s / (s + d),
+        (Some(_), Some(_)) => 0.5,
         _ => f32::NAN,
-    }
-}
-
-fn weight_of_means(s: f32, d: f32) -> f32 {
-    if s + d > 0.0 {
-        s / (s + d)
-    } else {
-        0.5
     }
 }
 

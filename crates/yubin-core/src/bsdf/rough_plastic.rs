@@ -53,7 +53,7 @@
 
 use super::fresnel::{fresnel_dielectric, reflect_m, refract_m};
 use super::microfacet::{Microfacet, MicrofacetType, Roughness};
-use super::plastic::{constant_specular_sampling_weight, relative_ior, specular_sampling_weight};
+use super::plastic::{relative_ior, specular_sampling_weight};
 use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
@@ -276,10 +276,7 @@ impl RoughPlastic {
             eta,
             nonlinear,
             transmittance: UNPREPARED,
-            specular_weight: constant_specular_sampling_weight(
-                Tex::value(1.0),
-                Tex::Const(diffuse),
-            ),
+            specular_weight: specular_sampling_weight(None, Tex::value(1.0), Tex::Const(diffuse)),
         }
     }
 
@@ -312,7 +309,7 @@ impl RoughPlastic {
     /// With the specular sampling weight set where it needs no texture.
     fn with_constant_weight(mut self) -> Self {
         self.specular_weight =
-            constant_specular_sampling_weight(self.specular_reflectance, self.diffuse_reflectance);
+            specular_sampling_weight(None, self.specular_reflectance, self.diffuse_reflectance);
         self
     }
 
@@ -333,7 +330,7 @@ impl RoughPlastic {
         });
         self.transmittance = index as u32;
         self.specular_weight =
-            specular_sampling_weight(m, self.specular_reflectance, self.diffuse_reflectance);
+            specular_sampling_weight(Some(m), self.specular_reflectance, self.diffuse_reflectance);
     }
 
     #[inline]
