@@ -116,9 +116,13 @@ impl ParticleTracer {
             let chunks = total.div_ceil(CHUNK_PATHS);
             for batch in (0..chunks).step_by(CHUNKS_PER_BATCH as usize) {
                 let end = (batch + CHUNKS_PER_BATCH).min(chunks);
-                let results: Vec<(Vec<Splat>, u64)> = (batch..end)
+                // One job per chunk (an indexed range, so that rayon can
+                // split it down to single chunks for whichever thread is free).
+                let results: Vec<(Vec<Splat>, u64)> = (0..(end - batch) as usize)
                     .into_par_iter()
-                    .map(|c| {
+                    .with_max_len(1)
+                    .map(|i| {
+                        let c = batch + i as u64;
                         let paths = c * CHUNK_PATHS..((c + 1) * CHUNK_PATHS).min(total);
                         let n = paths.end - paths.start;
                         let r = self.trace_chunk(scene, &lights, settings.seed, paths);
