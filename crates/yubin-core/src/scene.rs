@@ -135,12 +135,16 @@ macro_rules! with_node_test {
             #[inherit_target]
             #[inline]
             fn traverse($($arg: $ty),*) -> $ret {
-                $by($($arg,)* |l, n, lo, hi| crate::accel::hit_children_avx2(l, n, lo, hi))
+                $by(
+                    $($arg,)*
+                    |l, n, lo, hi| crate::accel::hit_children_avx2(l, n, lo, hi),
+                    |r, p, s, c, t| crate::shape::intersect_packet_avx2(r, p, s, c, t),
+                )
             }
             #[target_cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
             #[inline(always)]
             fn traverse($($arg: $ty),*) -> $ret {
-                $by($($arg,)* RayLanes::hit_children)
+                $by($($arg,)* RayLanes::hit_children, WatertightRay::intersect_packet)
             }
             traverse($($arg),*)
         }
@@ -183,6 +187,7 @@ fn closest_triangle_by(
     g: &Group,
     ray: &Ray,
     test: impl Fn(&RayLanes, &Node, f32, f32) -> (f32x8, u32),
+    tris: impl Fn(&WatertightRay, &TrianglePackets, usize, usize, f32) -> Option<(usize, PrimHit)>,
 ) -> Option<(u32, PrimHit)> {
     let vectors = ray.vectors();
     let wr = WatertightRay::from_vectors(&vectors, ray.t_min);
@@ -190,7 +195,7 @@ fn closest_triangle_by(
     let prefetch = |start| g.tris.prefetch(start);
     g.bvh
         .closest_leaves_by(ray, &vectors, &prefetch, test, |start, count, t_max| {
-            let (lane, hit) = wr.intersect_packet(&g.tris, start, count, t_max)?;
+            let (lane, hit) = tris(&wr, &g.tris, start, count, t_max)?;
             closest = Some((lane + start, hit));
             Some(hit.t)
         });
@@ -203,14 +208,14 @@ fn triangle_occludes_by(
     g: &Group,
     ray: &Ray,
     test: impl Fn(&RayLanes, &Node, f32, f32) -> (f32x8, u32),
+    tris: impl Fn(&WatertightRay, &TrianglePackets, usize, usize, f32) -> Option<(usize, PrimHit)>,
 ) -> bool {
     let vectors = ray.vectors();
     let wr = WatertightRay::from_vectors(&vectors, ray.t_min);
     let prefetch = |start| g.tris.prefetch(start);
     g.bvh
         .any_leaves_by(ray, &vectors, &prefetch, test, |start, count| {
-            wr.intersect_packet(&g.tris, start, count, ray.t_max)
-                .is_some()
+            tris(&wr, &g.tris, start, count, ray.t_max).is_some()
         })
 }
 
@@ -501,6 +506,7 @@ impl Scene {
         ray: &Ray,
         instance: Option<u32>,
         test: impl Fn(&RayLanes, &Node, f32, f32) -> (f32x8, u32),
+        tris: impl Fn(&WatertightRay, &TrianglePackets, usize, usize, f32) -> Option<(usize, PrimHit)>,
     ) -> Option<Closest> {
         let mut shear = None;
         // A triangle hit keeps only its packet id: its shape and primitive
@@ -515,7 +521,7 @@ impl Scene {
                 if g.tris.has_triangles(start) {
                     let wr = shear
                         .get_or_insert_with(|| WatertightRay::from_vectors(&vectors, ray.t_min));
-                    if let Some((lane, hit)) = wr.intersect_packet(&g.tris, start, count, t_max) {
+                    if let Some((lane, hit)) = tris(wr, &g.tris, start, count, t_max) {
                         closest = Some(Closest::Triangle(g.tris.id(start + lane), hit));
                         best = Some(hit.t);
                     }
@@ -590,19 +596,19 @@ impl Scene {
         g: &Group,
         ray: &Ray,
         test: impl Fn(&RayLanes, &Node, f32, f32) -> (f32x8, u32),
+        tris: impl Fn(&WatertightRay, &TrianglePackets, usize, usize, f32) -> Option<(usize, PrimHit)>,
     ) -> bool {
         let mut shear = None;
         let prefetch = |start| g.tris.prefetch(start);
         let vectors = ray.vectors();
         g.bvh
             .any_leaves_by(ray, &vectors, &prefetch, test, |start, count| {
-                if g.tris.has_triangles(start)
-                    && shear
-                        .get_or_insert_with(|| WatertightRay::from_vectors(&vectors, ray.t_min))
-                        .intersect_packet(&g.tris, start, count, ray.t_max)
-                        .is_some()
-                {
-                    return true;
+                if g.tris.has_triangles(start) {
+                    let wr = shear
+                        .get_or_insert_with(|| WatertightRay::from_vectors(&vectors, ray.t_min));
+                    if tris(wr, &g.tris, start, count, ray.t_max).is_some() {
+                        return true;
+                    }
                 }
                 self.item_occludes(g, start..start + count, ray)
             })
