@@ -609,6 +609,7 @@ impl RayLanes {
 /// Eight rays prepared for box tests together, a lane per ray: each lane
 /// holds what [`RayLanes`] holds for its ray (the same formulas, so the
 /// test is as conservative).
+#[derive(Clone, Copy)]
 pub(crate) struct PacketLanes {
     inv_d: [f32x8; 3],
     near_offset: [f32x8; 3],
@@ -643,7 +644,7 @@ impl PacketLanes {
     /// each lane's own direction: the lesser distance (and the greater
     /// for the far plane), which is the plane [`RayLanes`] picks by sign.
     #[inline(always)]
-    fn hit_child(&self, node: &Node, c: usize, t_max: f32x8) -> u32 {
+    pub(crate) fn hit_child(&self, node: &Node, c: usize, t_max: f32x8) -> u32 {
         let mut near = self.t_min;
         let mut far = t_max;
         for a in 0..3 {
@@ -656,6 +657,43 @@ impl PacketLanes {
         }
         near.cmp_le(far).move_mask() as u32
     }
+}
+
+/// [`PacketLanes::hit_child`] for packet traversal compiled for AVX2: in
+/// a build for AVX2, the portable test itself (see [`hit_children_avx2`]).
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+#[inline(always)]
+pub(crate) fn hit_child_avx2(lanes: &PacketLanes, node: &Node, c: usize, t_max: f32x8) -> u32 {
+    lanes.hit_child(node, c, t_max)
+}
+
+/// [`PacketLanes::hit_child`] with each step one 8-wide AVX instruction
+/// instead of two SSE halves, for packet traversal compiled for AVX2 and
+/// chosen at run time (`scene/packet.rs`): the same operations in the
+/// same order, so the same masks bit for bit
+/// (`avx2_packet_box_test_equals_portable_one`).
+#[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) fn hit_child_avx2(lanes: &PacketLanes, node: &Node, c: usize, t_max: f32x8) -> u32 {
+    use std::arch::x86_64::{
+        __m256, _mm256_add_ps, _mm256_cmp_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
+        _mm256_mul_ps, _mm256_set1_ps, _CMP_LE_OQ,
+    };
+    let wide = |v: f32x8| -> __m256 { bytemuck::cast(v) };
+    let (mut near, mut far) = (wide(lanes.t_min), wide(t_max));
+    for a in 0..3 {
+        let lo = _mm256_set1_ps(node.planes[2 * a].as_array_ref()[c]);
+        let hi = _mm256_set1_ps(node.planes[2 * a + 1].as_array_ref()[c]);
+        let slab = |p: __m256, inv: f32x8, offset: f32x8| {
+            _mm256_add_ps(_mm256_mul_ps(p, wide(inv)), wide(offset))
+        };
+        let (inv, no) = (lanes.inv_d[a], lanes.near_offset[a]);
+        let (finv, fo) = (lanes.far_inv_d[a], lanes.far_offset[a]);
+        near = _mm256_max_ps(near, _mm256_min_ps(slab(lo, inv, no), slab(hi, inv, no)));
+        far = _mm256_min_ps(far, _mm256_max_ps(slab(lo, finv, fo), slab(hi, finv, fo)));
+    }
+    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
 }
 
 /// Rays a packet holds.
@@ -678,12 +716,16 @@ impl Bvh {
     /// some lanes of `active` meet within their intervals (`lanes`: those
     /// lanes), depth first; `leaf` returns all lanes' `t_max` (their
     /// closest hits so far). Only for trees that [`Bvh::takes_packets`].
-    #[inline]
+    /// Child boxes are tested by `test` (the portable
+    /// [`PacketLanes::hit_child`] or [`hit_child_avx2`]); always inlined
+    /// (see [`Bvh::closest_leaves_by`]).
+    #[inline(always)]
     pub(crate) fn packet_leaves(
         &self,
         lanes: &PacketLanes,
         active: u32,
         mut t_max: f32x8,
+        test: impl Fn(&PacketLanes, &Node, usize, f32x8) -> u32,
         mut leaf: impl FnMut(usize, usize, u32) -> f32x8,
     ) {
         debug_assert!(self.takes_packets());
@@ -706,7 +748,7 @@ impl Bvh {
                 if node.child[c] == EMPTY {
                     continue;
                 }
-                let hit = lanes.hit_child(node, c, t_max) & mask;
+                let hit = test(lanes, node, c, t_max) & mask;
                 if hit != 0 {
                     let _ = stack.try_push((node.child[c], hit));
                 }
@@ -1677,6 +1719,105 @@ mod tests {
             hits += mask.count_ones();
         }
         assert!(hits > 500, "too few boxes met ({hits}) to test anything");
+    }
+
+    /// A (packet, node, child, t_max) case of the packet box test.
+    type PacketBoxCase = (PacketLanes, Node, usize, f32x8);
+
+    /// The AVX2 packet box test on this CPU, or `None` where it has no
+    /// AVX2: the mask per case.
+    #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+    fn avx2_packet_box_tests(cases: &[PacketBoxCase]) -> Option<Vec<u32>> {
+        #[multiversion::target::target_cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        #[multiversion::inherit_target]
+        fn run(cases: &[PacketBoxCase]) -> Option<Vec<u32>> {
+            let test = |(l, n, c, t): &PacketBoxCase| hit_child_avx2(l, n, *c, *t);
+            Some(cases.iter().map(test).collect())
+        }
+        #[multiversion::target::target_cfg(not(all(
+            target_arch = "x86_64",
+            target_feature = "avx2"
+        )))]
+        fn run(_: &[PacketBoxCase]) -> Option<Vec<u32>> {
+            None
+        }
+        run(cases)
+    }
+
+    /// Per lane, the least non-negative `t_max` at which the portable
+    /// packet test says the lane meets child `c` (by bisection on the
+    /// floats' bits, which order non-negative floats); `f32::MAX` where
+    /// it never does.
+    fn least_t_max_meeting(lanes: &PacketLanes, node: &Node, c: usize) -> [f32; PACKET_RAYS] {
+        let (mut lo, mut hi) = ([0u32; PACKET_RAYS], [f32::MAX.to_bits(); PACKET_RAYS]);
+        for _ in 0..32 {
+            let mid: [u32; PACKET_RAYS] = std::array::from_fn(|l| lo[l] + (hi[l] - lo[l]) / 2);
+            let mask = lanes.hit_child(node, c, f32x8::new(mid.map(f32::from_bits)));
+            for l in 0..PACKET_RAYS {
+                if mask >> l & 1 != 0 {
+                    hi[l] = mid[l];
+                } else {
+                    lo[l] = mid[l];
+                }
+            }
+        }
+        hi.map(f32::from_bits)
+    }
+
+    /// The AVX2 packet box test gives the portable one's masks bit for
+    /// bit: random boxes, packets of rays from random origins with some
+    /// zero direction components, intervals that cut boxes, end before
+    /// them, or end just where a lane's mask flips.
+    #[test]
+    fn avx2_packet_box_test_equals_portable_one() {
+        let mut rng = Pcg32::new(22, 5);
+        let mut cases = Vec::new();
+        for _ in 0..2000 {
+            let boxes = (0..WIDTH).map(|_| {
+                let c = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 8.0;
+                let h = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0;
+                Bounds3 {
+                    min: c - h,
+                    max: c + h,
+                }
+            });
+            let node = Node::with_boxes(boxes.collect::<Vec<_>>().into_iter());
+            let rays: [Ray; PACKET_RAYS] = std::array::from_fn(|_| {
+                let o = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 12.0;
+                // Towards the middle of the boxes' region, some axis-parallel.
+                let target =
+                    (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 4.0;
+                let mut d = (target - o).normalize();
+                if rng.next_f32() < 0.2 {
+                    d.x = 0.0;
+                }
+                let mut ray = Ray::new(o, d);
+                ray.t_min = rng.next_f32();
+                ray
+            });
+            let lanes = PacketLanes::new(&RayPacket::new(&rays));
+            let t_max = f32x8::new(std::array::from_fn(|_| rng.next_f32() * 12.0));
+            let c = (rng.next_f32() * WIDTH as f32) as usize % WIDTH;
+            // Where a mask bit flips, any difference in the arithmetic
+            // shows: each lane's least t_max that meets the box, and the
+            // float below it.
+            let least = least_t_max_meeting(&lanes, &node, c);
+            let below = least.map(|t| f32::from_bits(t.to_bits().saturating_sub(1)));
+            cases.push((lanes, node, c, f32x8::new(least)));
+            cases.push((lanes, node, c, f32x8::new(below)));
+            cases.push((lanes, node, c, t_max));
+        }
+        let Some(avx2) = avx2_packet_box_tests(&cases) else {
+            eprintln!("skipped: this CPU has no AVX2");
+            return;
+        };
+        let mut met = 0;
+        for ((l, n, c, t), got) in cases.iter().zip(avx2) {
+            let want = l.hit_child(n, *c, *t);
+            assert_eq!(want, got);
+            met += want.count_ones();
+        }
+        assert!(met > 500, "too few boxes met ({met}) to test anything");
     }
 
     /// Random spheres as primitives (simple exact intersection).

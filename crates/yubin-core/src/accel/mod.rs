@@ -7,7 +7,7 @@ mod bvh;
 mod huge_array;
 
 #[cfg(target_arch = "x86_64")]
-pub(crate) use bvh::hit_children_avx2;
+pub(crate) use bvh::{hit_child_avx2, hit_children_avx2};
 pub use bvh::{Bvh, BvhStats, PrimCost, MAX_LEAF, MAX_POSITIONS, PACKET_NODES, PACKET_RAYS};
 pub(crate) use bvh::{Node, PacketLanes, RayLanes};
 pub use huge_array::{huge_array_bytes, HugeArray};

@@ -10,6 +10,8 @@
 //! `cube` is not a variant: like Mitsuba, it is built as a 12-triangle
 //! mesh ([`cube::cube_mesh`]).
 
+#[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
+mod avx2;
 pub mod cube;
 mod cylinder;
 mod disk;
@@ -18,6 +20,8 @@ mod rectangle;
 mod sphere;
 mod triangle;
 
+#[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
+pub(crate) use avx2::shape_packet_avx2;
 pub use cylinder::Cylinder;
 pub use disk::Disk;
 #[cfg(test)]
@@ -424,6 +428,19 @@ pub(crate) fn world_normal(to_world: &Transform, n: Vec3, flip: bool) -> Vec3 {
     } else {
         n
     }
+}
+
+/// [`Shape::intersect_packet`] for packet traversal compiled for AVX2 (see
+/// `avx2.rs`): in a build for AVX2, the portable test itself (`wide` is
+/// AVX there).
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+#[inline(always)]
+pub(crate) fn shape_packet_avx2(
+    shape: &Shape,
+    rays: &RayPacket,
+    t_max: f32x8,
+) -> Option<(u32, f32x8, [f32x8; 2])> {
+    shape.intersect_packet(rays, t_max)
 }
 
 /// Bounds of the object-space square [-1, 1]² at z = 0 under `to_world`.

@@ -599,8 +599,11 @@ mod tests {
     /// A (ray, packet start, count, t_max) case of a packet test.
     type PacketCase = (WatertightRay, usize, usize, f32);
 
+    /// A packet test's answer as bits: lane, distance and barycentrics.
+    type AnswerBits = Option<(usize, [u32; 3])>;
+
     /// The packet test's answers as bits (lane, distance, barycentrics).
-    fn answer_bits(hit: Option<(usize, PrimHit)>) -> Option<(usize, [u32; 3])> {
+    fn answer_bits(hit: Option<(usize, PrimHit)>) -> AnswerBits {
         hit.map(|(lane, h)| (lane, [h.t, h.uv.x, h.uv.y].map(f32::to_bits)))
     }
 
@@ -609,13 +612,10 @@ mod tests {
     fn avx2_packet_tests(
         packets: &TrianglePackets,
         cases: &[PacketCase],
-    ) -> Option<Vec<Option<(usize, [u32; 3])>>> {
+    ) -> Option<Vec<AnswerBits>> {
         #[multiversion::target::target_cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         #[multiversion::inherit_target]
-        fn run(
-            packets: &TrianglePackets,
-            cases: &[PacketCase],
-        ) -> Option<Vec<Option<(usize, [u32; 3])>>> {
+        fn run(packets: &TrianglePackets, cases: &[PacketCase]) -> Option<Vec<AnswerBits>> {
             let test = |(wr, start, count, t_max): &PacketCase| {
                 answer_bits(intersect_packet_avx2(wr, packets, *start, *count, *t_max))
             };
@@ -625,7 +625,7 @@ mod tests {
             target_arch = "x86_64",
             target_feature = "avx2"
         )))]
-        fn run(_: &TrianglePackets, _: &[PacketCase]) -> Option<Vec<Option<(usize, [u32; 3])>>> {
+        fn run(_: &TrianglePackets, _: &[PacketCase]) -> Option<Vec<AnswerBits>> {
             None
         }
         run(packets, cases)
