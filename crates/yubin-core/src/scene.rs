@@ -138,7 +138,11 @@ macro_rules! with_node_test {
                 $by(
                     $($arg,)*
                     |l, n, lo, hi| crate::accel::hit_children_avx2(l, n, lo, hi),
-                    |r, p, s, c, t| crate::shape::intersect_packet_avx2(r, p, s, c, t),
+                    |r: &WatertightRay, p, s, c, t| {
+                        r.intersect_packet_by(p, s, c, t, |r, v, t| {
+                            crate::shape::lane_tests_avx2(r, v, t)
+                        })
+                    },
                 )
             }
             #[target_cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]

@@ -81,7 +81,7 @@ fn small_tree_packet(
         let kernels = PacketKernels {
             boxes: |l: &PacketLanes, n: &Node, c, t| crate::accel::hit_child_avx2(l, n, c, t),
             triangles: |r: &WatertightRay, p: &TrianglePackets, s, c, t| {
-                crate::shape::intersect_packet_avx2(r, p, s, c, t)
+                r.intersect_packet_by(p, s, c, t, |r, v, t| crate::shape::lane_tests_avx2(r, v, t))
             },
             shapes: |s: &Shape, p: &RayPacket, t| crate::shape::shape_packet_avx2(s, p, t),
         };

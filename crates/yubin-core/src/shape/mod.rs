@@ -29,7 +29,7 @@ pub(crate) use mesh::tests as mesh_tests;
 pub use mesh::{MeshData, MeshShape, TriangleMesh};
 pub use rectangle::Rectangle;
 pub use sphere::Sphere;
-pub(crate) use triangle::intersect_packet_avx2;
+pub(crate) use triangle::lane_tests_avx2;
 pub use triangle::{TrianglePackets, WatertightRay, PACKET};
 
 use crate::interaction::SurfaceInteraction;

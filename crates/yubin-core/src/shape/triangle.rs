@@ -24,6 +24,9 @@ pub const PACKET: usize = 8;
 /// One lane per triangle of a packet.
 type Lanes = f32x8;
 
+/// A packet's vertices: per vertex, per axis, one lane per triangle.
+pub(crate) type PacketVertices = [[Lanes; 3]; 3];
+
 /// Triangles in packets of [`PACKET`], structure-of-arrays inside a packet
 /// (per vertex, per axis, one lane per triangle), so that one 320-byte
 /// packet holds a whole BVH leaf — vertices and the caller's triangle ids
@@ -242,6 +245,30 @@ impl WatertightRay {
         count: usize,
         t_max: f32,
     ) -> Option<(usize, PrimHit)> {
+        self.nearest(vertices, &self.lane_tests(vertices, t_max), count, t_max)
+    }
+
+    /// [`WatertightRay::intersect_packet`] with the lanes' arithmetic done
+    /// by `tests` (the portable [`WatertightRay::lane_tests`] or
+    /// [`lane_tests_avx2`]).
+    #[inline(always)]
+    pub(crate) fn intersect_packet_by(
+        &self,
+        p: &TrianglePackets,
+        start: usize,
+        count: usize,
+        t_max: f32,
+        tests: impl Fn(&Self, &PacketVertices, f32) -> LaneTests,
+    ) -> Option<(usize, PrimHit)> {
+        debug_assert!(start.is_multiple_of(PACKET) && count <= PACKET);
+        let vertices = &p.packets[start / PACKET].v;
+        self.nearest(vertices, &tests(self, vertices, t_max), count, t_max)
+    }
+
+    /// The arithmetic of the packet test, lane by lane: edge functions,
+    /// determinants and distances, as masks and lanes.
+    #[inline(always)]
+    pub(crate) fn lane_tests(&self, vertices: &PacketVertices, t_max: f32) -> LaneTests {
         let s = self.shear(vertices);
         let ([ax, bx, cx], [ay, by, cy], [az, bz, cz]) = (s.x, s.y, s.z);
         // Edge functions as two rounded products, never fused: see below.
@@ -273,7 +300,7 @@ impl WatertightRay {
         let inv = Lanes::ONE / det;
         let t = t_scaled * inv;
         let in_range = bits(t.cmp_gt(self.t_min) & t.cmp_lt(Lanes::splat(t_max)));
-        let lanes = LaneTests {
+        LaneTests {
             mixed,
             exact,
             in_range,
@@ -281,8 +308,7 @@ impl WatertightRay {
             v,
             w,
             inv,
-        };
-        self.nearest(vertices, &lanes, count, t_max)
+        }
     }
 
     /// The nearest hit among the first `count` lanes, from their tests.
@@ -380,7 +406,7 @@ impl WatertightRay {
 /// that have one exactly 0, and whose distance is within the ray's
 /// interval; the distances, the edge functions of vertices 1 and 2 and
 /// the reciprocal determinants.
-struct LaneTests {
+pub(crate) struct LaneTests {
     mixed: u32,
     exact: u32,
     in_range: u32,
@@ -390,44 +416,41 @@ struct LaneTests {
     inv: Lanes,
 }
 
-/// [`WatertightRay::intersect_packet`] for traversal compiled for AVX2
-/// (see `scene.rs`): in a build for AVX2 that is the portable test itself
+/// [`WatertightRay::lane_tests`] for traversal compiled for AVX2 (see
+/// `scene.rs`): in a build for AVX2 that is the portable test itself
 /// (`wide` is AVX there).
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 #[inline(always)]
-pub(crate) fn intersect_packet_avx2(
+pub(crate) fn lane_tests_avx2(
     ray: &WatertightRay,
-    p: &TrianglePackets,
-    start: usize,
-    count: usize,
+    vertices: &PacketVertices,
     t_max: f32,
-) -> Option<(usize, PrimHit)> {
-    ray.intersect_packet(p, start, count, t_max)
+) -> LaneTests {
+    ray.lane_tests(vertices, t_max)
 }
 
-/// [`WatertightRay::intersect_packet`] with each step one 8-wide AVX
+/// [`WatertightRay::lane_tests`] with each step one 8-wide AVX
 /// instruction instead of two SSE halves (`wide` picks its form by the
 /// build's flags, so code compiled for AVX2 at run time still gets the
 /// halves), for traversal compiled for AVX2 and chosen at run time (see
 /// `scene.rs`). The same operations in the same order, multiplications
 /// and additions never fused, as the portable test on baseline x86-64:
 /// the same hits bit for bit (`avx2_triangle_test_equals_portable_one`).
+/// Only the arithmetic, which is small enough to inline into traversal;
+/// picking the nearest hit stays in the caller.
 #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(crate) fn intersect_packet_avx2(
+pub(crate) fn lane_tests_avx2(
     ray: &WatertightRay,
-    p: &TrianglePackets,
-    start: usize,
-    count: usize,
+    vertices: &PacketVertices,
     t_max: f32,
-) -> Option<(usize, PrimHit)> {
+) -> LaneTests {
     use std::arch::x86_64::{
         __m256, _mm256_add_ps, _mm256_and_ps, _mm256_cmp_ps, _mm256_div_ps, _mm256_max_ps,
         _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_ps,
         _mm256_setzero_ps, _mm256_sub_ps, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LT_OQ,
     };
-    let vertices = &p.packets[start / PACKET].v;
     let m = |v: Lanes| -> __m256 { bytemuck::cast(v) };
     let [kx, ky, kz] = ray.k;
     let ([ox, oy, oz], [sx, sy, sz]) = (ray.o.map(m), ray.s.map(m));
@@ -464,7 +487,7 @@ pub(crate) fn intersect_packet_avx2(
         _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(t_max)),
     ));
     let lane = |v: __m256| -> Lanes { bytemuck::cast(v) };
-    let lanes = LaneTests {
+    LaneTests {
         mixed,
         exact,
         in_range,
@@ -472,8 +495,7 @@ pub(crate) fn intersect_packet_avx2(
         v: lane(v),
         w: lane(w),
         inv: lane(inv),
-    };
-    ray.nearest(vertices, &lanes, count, t_max)
+    }
 }
 
 /// A packet's vertices in the sheared space of a ray: per vertex, one lane
@@ -617,7 +639,10 @@ mod tests {
         #[multiversion::inherit_target]
         fn run(packets: &TrianglePackets, cases: &[PacketCase]) -> Option<Vec<AnswerBits>> {
             let test = |(wr, start, count, t_max): &PacketCase| {
-                answer_bits(intersect_packet_avx2(wr, packets, *start, *count, *t_max))
+                let hit = wr.intersect_packet_by(packets, *start, *count, *t_max, |r, v, t| {
+                    lane_tests_avx2(r, v, t)
+                });
+                answer_bits(hit)
             };
             Some(cases.iter().map(test).collect())
         }
