@@ -135,7 +135,7 @@ impl Microfacet {
         let e = (sq(m.x / self.alpha_u) + sq(m.y / self.alpha_v)) / cos2;
         let norm = PI * self.alpha_u * self.alpha_v * cos2 * cos2;
         let d = match self.kind {
-            MicrofacetType::Beckmann => (-e).exp() / norm,
+            MicrofacetType::Beckmann => crate::math::exp_or_zero(-e) / norm,
             MicrofacetType::Ggx => 1.0 / (norm * sq(1.0 + e)),
             MicrofacetType::Phong => unreachable!("handled above"),
         };
@@ -161,7 +161,7 @@ impl Microfacet {
                 // Λ = (e^{-a²} / (a√π) − erfc(a)) / 2 (Walter et al. 2007,
                 // eq. 27), with the one exponential both terms share; past
                 // a ≈ 9 it underflows and Λ = 0.
-                let l = 0.5 * (-a * a).exp() * (1.0 / (a * PI.sqrt()) - erfcx(a));
+                let l = 0.5 * crate::math::exp_or_zero(-a * a) * (1.0 / (a * PI.sqrt()) - erfcx(a));
                 l.max(0.0)
             }
             MicrofacetType::Ggx => {

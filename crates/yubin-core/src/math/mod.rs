@@ -110,6 +110,20 @@ impl RayPacket {
     }
 }
 
+/// `e^x`, with the arguments whose exponential is 0 in `f32` answered
+/// without libm: its `expf` sends them to an out-of-line underflow
+/// handler that sets `errno`, and Beckmann's distribution and masking
+/// meet them at every grazing half vector (1.3 % of the rough scene's
+/// time). The same values bit for bit: `expf` is 0 below about −103.97.
+#[inline]
+pub fn exp_or_zero(x: f32) -> f32 {
+    if x < -104.0 {
+        0.0
+    } else {
+        x.exp()
+    }
+}
+
 /// Offsets `p` along the geometric normal `n`, to the side that `d` points
 /// to, so that a ray leaving a surface doesn't hit it again.
 #[inline]
@@ -146,6 +160,13 @@ pub fn spawn_ray_to(p: Vec3, n: Vec3, target: Vec3) -> Ray {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn exp_or_zero_is_exp() {
+        for x in [-200.0f32, -104.0, -103.98, -103.9, -87.5, -10.0, 0.0, 3.0] {
+            assert_eq!(super::exp_or_zero(x).to_bits(), x.exp().to_bits(), "{x}");
+        }
+    }
+
     use super::*;
 
     #[test]
