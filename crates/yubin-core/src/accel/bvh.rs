@@ -1650,8 +1650,13 @@ mod tests {
     use glam::Vec3;
 
     /// The AVX2 node test on this CPU, or `None` where it has no AVX2:
-    /// (entry distances' bits, mask) per (ray, node) pair.
-    #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+    /// (entry distances' bits, mask) per (ray, node) pair. Compiled for
+    /// the targets of single-ray traversal (`scene.rs`), so that the test
+    /// runs in the code this CPU's traversal runs.
+    #[multiversion::multiversion(targets(
+        "x86_64+avx512f+avx512vl+avx512bw+avx512dq+avx2+fma",
+        "x86_64+avx2+fma"
+    ))]
     fn avx2_box_tests(cases: &[(RayLanes, Node, f32, f32)]) -> Option<Vec<([u32; 8], u32)>> {
         #[multiversion::target::target_cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         #[multiversion::inherit_target]

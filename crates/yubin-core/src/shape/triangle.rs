@@ -629,8 +629,12 @@ mod tests {
         hit.map(|(lane, h)| (lane, [h.t, h.uv.x, h.uv.y].map(f32::to_bits)))
     }
 
-    /// The AVX2 packet test on this CPU, or `None` where it has no AVX2.
-    #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+    /// The AVX2 packet test on this CPU, or `None` where it has no AVX2,
+    /// compiled for the targets of single-ray traversal (`scene.rs`).
+    #[multiversion::multiversion(targets(
+        "x86_64+avx512f+avx512vl+avx512bw+avx512dq+avx2+fma",
+        "x86_64+avx2+fma"
+    ))]
     fn avx2_packet_tests(
         packets: &TrianglePackets,
         cases: &[PacketCase],
