@@ -18,6 +18,7 @@ use super::{
 };
 use crate::math::atan2;
 use glam::{Vec2, Vec3};
+use wide::f32x4;
 
 /// A rectangle as seen from a point, ready to be sampled.
 #[derive(Clone, Copy, Debug)]
@@ -69,6 +70,9 @@ impl SphericalRectangle {
         let (c2, s2) = (x0 * y1, h * corners.len[3]);
         let (c3, s3) = (-x0 * y0, h * corners.len[0]);
         let norm = 1.0 / ((c2 * c2 + s2 * s2) * (c3 * c3 + s3 * s3)).sqrt();
+        // b0 and b1 in one pair of lanes (see `sample`).
+        let y = f32x4::new([y0, y1, 0.0, 0.0]);
+        let b = (f32x4::new([-y0, y1, 0.0, 0.0]) / (f32x4::splat(h2) + y * y).sqrt()).to_array();
         Some(Self {
             corner,
             ex,
@@ -80,8 +84,8 @@ impl SphericalRectangle {
             y0,
             y1,
             h,
-            b0: -y0 / (h2 + y0 * y0).sqrt(),
-            b1: y1 / (h2 + y1 * y1).sqrt(),
+            b0: b[0],
+            b1: b[1],
             cos_g: (c2 * c3 - s2 * s3) * norm,
             sin_g: (s2 * c3 + c2 * s3) * norm,
             solid_angle,
@@ -112,8 +116,11 @@ impl SphericalRectangle {
         let xu = xu.max(self.x0).min(self.x1);
         // Along it, uniform in the sine of the elevation.
         let dist2 = xu * xu + h2;
-        let h0 = self.y0 / (dist2 + self.y0 * self.y0).sqrt();
-        let h1 = self.y1 / (dist2 + self.y1 * self.y1).sqrt();
+        // Both ends' sines in one pair of lanes: one square root and one
+        // division where two of each, one after the other, made the
+        // sample wait (the same values bit for bit).
+        let y = f32x4::new([self.y0, self.y1, 0.0, 0.0]);
+        let [h0, h1, ..] = (y / (f32x4::splat(dist2) + y * y).sqrt()).to_array();
         let hv = h0 + u.y * (h1 - h0);
         let yv = hv * (dist2 / (1.0 - hv * hv).max(1e-12)).sqrt();
         let yv = yv.max(self.y0).min(self.y1);
@@ -182,9 +189,16 @@ impl Corners {
             Vec3::new(x1, y1, z0),
             Vec3::new(x0, y1, z0),
         ];
+        // The four lengths in four lanes: one square root, not four (the
+        // same sums in the same order as `Vec3::length`).
+        let (x, y, z) = (
+            f32x4::new([x0, x1, x1, x0]),
+            f32x4::new([y0, y0, y1, y1]),
+            f32x4::splat(z0),
+        );
         Self {
             v,
-            len: v.map(Vec3::length),
+            len: (x * x + y * y + z * z).sqrt().to_array(),
         }
     }
 
