@@ -2,7 +2,7 @@
 //! `envmap` (its image) and `preetham` (its sampling table): +y is up
 //! (v = 0 at the zenith, v = θ/π), and u = atan2(x, −z) / 2π.
 
-use crate::math::atan2;
+use crate::math::atan2_pair;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -13,10 +13,8 @@ const INV_2PI: f32 = 0.5 * FRAC_1_PI;
 pub(crate) fn uv_of(d: Vec3) -> Vec2 {
     // θ as the angle of (y, sin θ): no acos, and exact near the poles.
     let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
-    Vec2::new(
-        atan2(d.x, -d.z) * INV_2PI,
-        atan2(sin_theta, d.y) * FRAC_1_PI,
-    )
+    let [phi, theta] = atan2_pair([d.x, sin_theta], [-d.z, d.y]);
+    Vec2::new(phi * INV_2PI, theta * FRAC_1_PI)
 }
 
 /// The unit direction at (u, v).
