@@ -24,10 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let floor = Affine3A::from_rotation_x(-FRAC_PI_2) * Affine3A::from_scale(Vec3::splat(10.0));
     let floor = Transform::new(floor).expect("invertible");
     sb.add_shape(
-        Shape::Rectangle(Rectangle {
-            to_world: floor,
-            flip_normals: false,
-        }),
+        Shape::Rectangle(Rectangle::new(floor, false)),
         Some(grey),
         None,
     )?;

@@ -1574,11 +1574,11 @@ mod tests {
         )
         .unwrap();
         b.add_shape(
-            Shape::Rectangle(Rectangle {
-                to_world: t(Affine3A::from_translation(Vec3::new(0.0, -2.0, 0.0))
+            Shape::Rectangle(Rectangle::new(
+                t(Affine3A::from_translation(Vec3::new(0.0, -2.0, 0.0))
                     * Affine3A::from_rotation_x(1.2)),
-                flip_normals: false,
-            }),
+                false,
+            )),
             None,
             None,
         )

@@ -45,10 +45,7 @@ fn scene(plane: bool, sphere: Option<(Vec3, f32)>) -> Scene {
     if plane {
         let big = Transform::new(Affine3A::from_scale(Vec3::splat(50.0))).unwrap();
         b.add_shape(
-            Shape::Rectangle(Rectangle {
-                to_world: big,
-                flip_normals: false,
-            }),
+            Shape::Rectangle(Rectangle::new(big, false)),
             Some(grey),
             None,
         )
@@ -152,11 +149,8 @@ fn aov_albedo_is_the_diffuse_parameter_as_in_mitsuba() {
         };
         let big = Transform::new(Affine3A::from_scale(Vec3::splat(50.0))).unwrap();
         b.add_shape(
-            Shape::Rectangle(Rectangle {
-                to_world: big,
-                // Seen from its back when two-sided.
-                flip_normals: two_sided,
-            }),
+            // Seen from its back when two-sided.
+            Shape::Rectangle(Rectangle::new(big, two_sided)),
             Some(bsdf),
             None,
         )
@@ -273,10 +267,7 @@ fn disc_scene(radius: f32, h: f32) -> Scene {
     let grey = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(0.5))));
     let floor = Transform::new(Affine3A::from_scale(Vec3::splat(20.0))).unwrap();
     b.add_shape(
-        Shape::Rectangle(Rectangle {
-            to_world: floor,
-            flip_normals: false,
-        }),
+        Shape::Rectangle(Rectangle::new(floor, false)),
         Some(grey),
         None,
     )

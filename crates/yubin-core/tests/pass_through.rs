@@ -43,10 +43,7 @@ fn render_mean(sheet: Sheet, light: Light, max_depth: i32, spp: u32) -> f32 {
     // The floor: the rectangle [-1, 1]² at z = 0, facing +z.
     let big = Transform::new(Affine3A::from_scale(Vec3::splat(4.0))).unwrap();
     b.add_shape(
-        Shape::Rectangle(Rectangle {
-            to_world: big,
-            flip_normals: false,
-        }),
+        Shape::Rectangle(Rectangle::new(big, false)),
         Some(floor),
         None,
     )
@@ -68,10 +65,7 @@ fn render_mean(sheet: Sheet, light: Light, max_depth: i32, spp: u32) -> f32 {
         let t = Affine3A::from_translation(Vec3::new(0.0, 0.0, 2.0))
             * Affine3A::from_scale(Vec3::splat(20.0));
         b.add_shape(
-            Shape::Rectangle(Rectangle {
-                to_world: Transform::new(t).unwrap(),
-                flip_normals: false,
-            }),
+            Shape::Rectangle(Rectangle::new(Transform::new(t).unwrap(), false)),
             Some(bsdf),
             None,
         )

@@ -296,12 +296,8 @@ mod tests {
         let mut b = SceneBuilder::new();
         let white = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(0.7))));
         let glass = b.add_bsdf(Bsdf::Dielectric(Dielectric::new(1.5)));
-        let wall = |m: Affine3A| {
-            Shape::Rectangle(Rectangle {
-                to_world: Transform::new(m).unwrap(),
-                flip_normals: false,
-            })
-        };
+        let wall =
+            |m: Affine3A| Shape::Rectangle(Rectangle::new(Transform::new(m).unwrap(), false));
         for m in [
             Affine3A::from_translation(Vec3::new(0.0, 0.0, -1.0)),
             Affine3A::from_translation(Vec3::new(0.0, -1.0, 0.0))

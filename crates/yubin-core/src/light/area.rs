@@ -175,10 +175,7 @@ pub(crate) mod tests {
         let front = Vec3::new(0.2, -1.5, -1.0);
         let mut rectangle = Variant::area(
             "area on a rectangle",
-            Shape::Rectangle(Rectangle {
-                to_world: placed(turned),
-                flip_normals: false,
-            }),
+            Shape::Rectangle(Rectangle::new(placed(turned), false)),
             vec![],
             vec![front],
         );

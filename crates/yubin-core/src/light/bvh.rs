@@ -728,10 +728,7 @@ mod tests {
                     * Affine3A::from_rotation_x(angle),
             )
             .unwrap();
-            let rect = Shape::Rectangle(Rectangle {
-                to_world,
-                flip_normals: false,
-            });
+            let rect = Shape::Rectangle(Rectangle::new(to_world, false));
             b.add_shape(rect, None, Some(Tex::Const(Rgb::splat(1.0 + i as f32))))
                 .unwrap();
         }

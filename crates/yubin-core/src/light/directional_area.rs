@@ -66,10 +66,7 @@ pub(crate) mod tests {
         )
         .unwrap();
         vec![Variant {
-            shapes: vec![Shape::Rectangle(Rectangle {
-                to_world,
-                flip_normals: false,
-            })],
+            shapes: vec![Shape::Rectangle(Rectangle::new(to_world, false))],
             ..Variant::new(
                 "directionalarea on a rectangle",
                 Emitter::DirectionalArea(DirectionalAreaLight {

@@ -270,10 +270,9 @@ impl Shape {
                 })
             }
             Shape::Sphere(s) => Shape::Sphere(s.placed(t)?),
-            Shape::Rectangle(r) => Shape::Rectangle(Rectangle {
-                to_world: t.after(&r.to_world),
-                ..r
-            }),
+            Shape::Rectangle(r) => {
+                Shape::Rectangle(Rectangle::new(t.after(&r.to_world), r.flip_normals))
+            }
             Shape::Disk(d) => Shape::Disk(Disk {
                 to_world: t.after(&d.to_world),
                 ..d

@@ -36,24 +36,71 @@ use wide::{f32x8, CmpLe};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rectangle {
     /// Object to world.
-    pub to_world: Transform,
+    pub(crate) to_world: Transform,
     /// Face −z.
-    pub flip_normals: bool,
+    pub(crate) flip_normals: bool,
+    /// What hits and samples read of the placement, computed once: every
+    /// light sample had transformed the centre and both edges, and
+    /// normalized the normal and taken the area's square root again.
+    geometry: Geometry,
+}
+
+/// A rectangle's world-space centre, edges (the uv derivatives), unit
+/// normal and area, and the area's reciprocal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Geometry {
+    center: Vec3,
+    ex: Vec3,
+    ey: Vec3,
+    normal: Vec3,
+    area: f32,
+    inv_area: f32,
 }
 
 impl Rectangle {
+    /// The unit square placed by `to_world`, facing −z if `flip_normals`.
+    pub fn new(to_world: Transform, flip_normals: bool) -> Self {
+        let ex = to_world.vector(Vec3::new(2.0, 0.0, 0.0));
+        let ey = to_world.vector(Vec3::new(0.0, 2.0, 0.0));
+        let area = ex.cross(ey).length();
+        let geometry = Geometry {
+            center: to_world.point(Vec3::ZERO),
+            ex,
+            ey,
+            normal: world_normal(&to_world, Vec3::Z, flip_normals),
+            area,
+            inv_area: 1.0 / area,
+        };
+        Self {
+            to_world,
+            flip_normals,
+            geometry,
+        }
+    }
+
     /// Builds the rectangle from its scene parameters.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
-        Ok(Self {
-            flip_normals: p.boolean_or("flip_normals", false)?,
-            to_world: p.transform_or_identity("to_world")?,
-        })
+        let flip_normals = p.boolean_or("flip_normals", false)?;
+        Ok(Self::new(
+            p.transform_or_identity("to_world")?,
+            flip_normals,
+        ))
+    }
+
+    /// Object to world.
+    pub fn to_world(&self) -> &Transform {
+        &self.to_world
+    }
+
+    /// Whether it faces −z.
+    pub fn flip_normals(&self) -> bool {
+        self.flip_normals
     }
 }
 
 impl Rectangle {
     fn normal(&self) -> Vec3 {
-        world_normal(&self.to_world, Vec3::Z, self.flip_normals)
+        self.geometry.normal
     }
 
     /// The corner at uv = (0, 0) and the edges along u and v, when `p`
@@ -61,9 +108,7 @@ impl Rectangle {
     /// square-cornered.
     #[inline]
     fn near_corner_edges(&self, p: Vec3) -> Option<(Vec3, Vec3, Vec3)> {
-        let center = self.to_world.point(Vec3::ZERO);
-        let ex = self.to_world.vector(Vec3::new(2.0, 0.0, 0.0));
-        let ey = self.to_world.vector(Vec3::new(0.0, 2.0, 0.0));
+        let Geometry { center, ex, ey, .. } = self.geometry;
         let area2 = ex.cross(ey).length_squared();
         let near = area2 >= (NEAR_AREA_PER_DISTANCE2 * center.distance_squared(p)).powi(2);
         let square = ex.dot(ey).powi(2) <= 1e-10 * area2;
@@ -120,24 +165,21 @@ impl ShapeModel for Rectangle {
     ) -> SurfaceInteraction {
         let local = hit.uv;
         let p = self.to_world.point(local.extend(0.0));
-        let dpdu = self.to_world.vector(Vec3::new(2.0, 0.0, 0.0));
-        let dpdv = self.to_world.vector(Vec3::new(0.0, 2.0, 0.0));
+        let Geometry { ex, ey, normal, .. } = self.geometry;
         let uv = (local + Vec2::ONE) * 0.5;
-        make_interaction(ray, hit.t, p, self.normal(), uv, dpdu, dpdv)
+        make_interaction(ray, hit.t, p, normal, uv, ex, ey)
     }
 
     fn surface_area(&self, _: &[TriangleMesh]) -> f32 {
-        let dpdu = self.to_world.vector(Vec3::new(2.0, 0.0, 0.0));
-        let dpdv = self.to_world.vector(Vec3::new(0.0, 2.0, 0.0));
-        dpdu.cross(dpdv).length()
+        self.geometry.area
     }
 
-    fn sample_position(&self, meshes: &[TriangleMesh], u: Vec2) -> PositionSample {
+    fn sample_position(&self, _: &[TriangleMesh], u: Vec2) -> PositionSample {
         let local = 2.0 * u - Vec2::ONE;
         PositionSample {
             p: self.to_world.point(local.extend(0.0)),
             n: self.normal(),
-            pdf: 1.0 / self.surface_area(meshes),
+            pdf: self.geometry.inv_area,
             uv: u,
         }
     }
@@ -178,10 +220,7 @@ mod tests {
         let m = Affine3A::from_translation(Vec3::new(0.1, 0.2, 0.3))
             * Affine3A::from_rotation_x(0.7)
             * Affine3A::from_scale(Vec3::new(0.5, 1.3, 1.0));
-        Rectangle {
-            to_world: Transform::new(m).unwrap(),
-            flip_normals: false,
-        }
+        Rectangle::new(Transform::new(m).unwrap(), false)
     }
 
     #[test]
@@ -199,13 +238,13 @@ mod tests {
         let square = skewed();
         assert!(square.seen_from(Vec3::new(0.2, -1.0, 1.2)).is_some());
         assert!(square.seen_from(Vec3::new(40.0, 120.0, -100.0)).is_none());
-        let sheared = Rectangle {
-            to_world: Transform::new(Affine3A::from_cols_array(&[
+        let sheared = Rectangle::new(
+            Transform::new(Affine3A::from_cols_array(&[
                 1.0, 0.0, 0.0, 0.4, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0,
             ]))
             .unwrap(),
-            flip_normals: false,
-        };
+            false,
+        );
         assert!(sheared.seen_from(Vec3::new(0.0, 0.0, 1.0)).is_none());
         let s = Shape::Rectangle(sheared);
         check_shape_sampling(&s, &[], Vec3::new(0.2, 0.1, 0.8));
@@ -213,10 +252,7 @@ mod tests {
 
     #[test]
     fn parameterization_matches_mitsuba() {
-        let r = Shape::Rectangle(Rectangle {
-            to_world: Transform::IDENTITY,
-            flip_normals: false,
-        });
+        let r = Shape::Rectangle(Rectangle::new(Transform::IDENTITY, false));
         let si = closest_hit(&r, &[], &Ray::new(Vec3::new(0.5, -0.5, 1.0), -Vec3::Z)).unwrap();
         assert!((si.uv - Vec2::new(0.75, 0.25)).length() < 1e-6);
         assert_eq!(si.n, Vec3::Z);
