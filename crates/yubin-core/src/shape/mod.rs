@@ -462,11 +462,28 @@ pub(crate) fn make_interaction(
     dpdu: Vec3,
     dpdv: Vec3,
 ) -> SurfaceInteraction {
+    let frame = crate::math::Frame::from_normal_and_tangent(n, dpdu);
+    make_interaction_in_frame(ray, t, p, frame, uv, dpdu, dpdv)
+}
+
+/// [`make_interaction`] with the shading frame already built (from the
+/// normal and `dpdu`, as [`make_interaction`] builds it): a shape whose
+/// frame is the same at every point keeps it.
+#[inline]
+pub(crate) fn make_interaction_in_frame(
+    ray: &Ray,
+    t: f32,
+    p: Vec3,
+    frame: crate::math::Frame,
+    uv: Vec2,
+    dpdu: Vec3,
+    dpdv: Vec3,
+) -> SurfaceInteraction {
     SurfaceInteraction {
         p,
         t,
-        n,
-        sh_frame: crate::math::Frame::from_normal_and_tangent(n, dpdu),
+        n: frame.n,
+        sh_frame: frame,
         uv,
         dpdu,
         dpdv,

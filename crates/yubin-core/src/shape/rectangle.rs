@@ -21,12 +21,12 @@
 //! rectangles are sampled by area.
 
 use super::{
-    area_to_solid_angle, intersect_local_plane, intersect_local_plane_packet, make_interaction,
-    unit_square_bounds, world_normal, PositionSample, PrimHit, ShapeDirectionSample, ShapeModel,
-    TriangleMesh, NEAR_AREA_PER_DISTANCE2,
+    area_to_solid_angle, intersect_local_plane, intersect_local_plane_packet,
+    make_interaction_in_frame, unit_square_bounds, world_normal, PositionSample, PrimHit,
+    ShapeDirectionSample, ShapeModel, TriangleMesh, NEAR_AREA_PER_DISTANCE2,
 };
 use crate::interaction::SurfaceInteraction;
-use crate::math::{Bounds3, Ray, RayPacket, Transform};
+use crate::math::{Bounds3, Frame, Ray, RayPacket, Transform};
 use crate::params::{ParamError, Params};
 use crate::sampling::{spherical_rectangle_pdf, SphericalRectangle};
 use glam::{Vec2, Vec3};
@@ -53,6 +53,8 @@ struct Geometry {
     ex: Vec3,
     ey: Vec3,
     normal: Vec3,
+    /// The shading frame of every point: the normal and `ex`.
+    frame: Frame,
     area: f32,
     inv_area: f32,
 }
@@ -63,11 +65,13 @@ impl Rectangle {
         let ex = to_world.vector(Vec3::new(2.0, 0.0, 0.0));
         let ey = to_world.vector(Vec3::new(0.0, 2.0, 0.0));
         let area = ex.cross(ey).length();
+        let normal = world_normal(&to_world, Vec3::Z, flip_normals);
         let geometry = Geometry {
             center: to_world.point(Vec3::ZERO),
             ex,
             ey,
-            normal: world_normal(&to_world, Vec3::Z, flip_normals),
+            normal,
+            frame: Frame::from_normal_and_tangent(normal, ex),
             area,
             inv_area: 1.0 / area,
         };
@@ -165,9 +169,9 @@ impl ShapeModel for Rectangle {
     ) -> SurfaceInteraction {
         let local = hit.uv;
         let p = self.to_world.point(local.extend(0.0));
-        let Geometry { ex, ey, normal, .. } = self.geometry;
+        let Geometry { ex, ey, frame, .. } = self.geometry;
         let uv = (local + Vec2::ONE) * 0.5;
-        make_interaction(ray, hit.t, p, normal, uv, ex, ey)
+        make_interaction_in_frame(ray, hit.t, p, frame, uv, ex, ey)
     }
 
     fn surface_area(&self, _: &[TriangleMesh]) -> f32 {
