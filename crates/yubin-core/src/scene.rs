@@ -1584,10 +1584,10 @@ mod tests {
         )
         .unwrap();
         b.add_shape(
-            Shape::Disk(Disk {
-                to_world: t(Affine3A::from_translation(Vec3::new(0.0, 2.0, 1.0))),
-                flip_normals: true,
-            }),
+            Shape::Disk(Disk::new(
+                t(Affine3A::from_translation(Vec3::new(0.0, 2.0, 1.0))),
+                true,
+            )),
             None,
             None,
         )

@@ -275,10 +275,7 @@ fn disc_scene(radius: f32, h: f32) -> Scene {
     let disc = Affine3A::from_translation(Vec3::new(0.0, 0.0, h))
         * Affine3A::from_scale(Vec3::splat(radius));
     b.add_shape(
-        Shape::Disk(Disk {
-            to_world: Transform::new(disc).unwrap(),
-            flip_normals: true,
-        }),
+        Shape::Disk(Disk::new(Transform::new(disc).unwrap(), true)),
         Some(grey),
         None,
     )

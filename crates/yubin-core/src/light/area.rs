@@ -183,10 +183,10 @@ pub(crate) mod tests {
         rectangle.emission_pdf = Some(cosine_about_normal);
         let mut disk = Variant::area(
             "area on a scaled disk",
-            Shape::Disk(Disk {
-                to_world: placed(turned * Affine3A::from_scale(Vec3::new(2.0, 0.5, 1.0))),
-                flip_normals: false,
-            }),
+            Shape::Disk(Disk::new(
+                placed(turned * Affine3A::from_scale(Vec3::new(2.0, 0.5, 1.0))),
+                false,
+            )),
             vec![],
             vec![front],
         );

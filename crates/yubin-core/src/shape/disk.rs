@@ -30,24 +30,54 @@ use wide::{f32x8, CmpLe};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Disk {
     /// Object to world.
-    pub to_world: Transform,
+    pub(crate) to_world: Transform,
     /// Face −z.
-    pub flip_normals: bool,
+    pub(crate) flip_normals: bool,
+    /// The world unit normal, the area and its reciprocal, computed once
+    /// (as the rectangle keeps its own).
+    normal: Vec3,
+    area: f32,
+    inv_area: f32,
 }
 
 impl Disk {
+    /// The unit disk placed by `to_world`, facing −z if `flip_normals`.
+    pub fn new(to_world: Transform, flip_normals: bool) -> Self {
+        let x = to_world.vector(Vec3::X);
+        let y = to_world.vector(Vec3::Y);
+        let area = PI * x.cross(y).length();
+        Self {
+            to_world,
+            flip_normals,
+            normal: world_normal(&to_world, Vec3::Z, flip_normals),
+            area,
+            inv_area: 1.0 / area,
+        }
+    }
+
     /// Builds the disk from its scene parameters.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
-        Ok(Self {
-            flip_normals: p.boolean_or("flip_normals", false)?,
-            to_world: p.transform_or_identity("to_world")?,
-        })
+        let flip_normals = p.boolean_or("flip_normals", false)?;
+        Ok(Self::new(
+            p.transform_or_identity("to_world")?,
+            flip_normals,
+        ))
+    }
+
+    /// Object to world.
+    pub fn to_world(&self) -> &Transform {
+        &self.to_world
+    }
+
+    /// Whether it faces −z.
+    pub fn flip_normals(&self) -> bool {
+        self.flip_normals
     }
 }
 
 impl Disk {
     fn normal(&self) -> Vec3 {
-        world_normal(&self.to_world, Vec3::Z, self.flip_normals)
+        self.normal
     }
 }
 
@@ -110,17 +140,15 @@ impl ShapeModel for Disk {
     }
 
     fn surface_area(&self, _: &[TriangleMesh]) -> f32 {
-        let x = self.to_world.vector(Vec3::X);
-        let y = self.to_world.vector(Vec3::Y);
-        PI * x.cross(y).length()
+        self.area
     }
 
-    fn sample_position(&self, meshes: &[TriangleMesh], u: Vec2) -> PositionSample {
+    fn sample_position(&self, _: &[TriangleMesh], u: Vec2) -> PositionSample {
         let local = square_to_uniform_disk_concentric(u);
         PositionSample {
             p: self.to_world.point(local.extend(0.0)),
             n: self.normal(),
-            pdf: 1.0 / self.surface_area(meshes),
+            pdf: self.inv_area,
             uv: Vec2::new(local.length(), azimuth(local.x, local.y) / (2.0 * PI)),
         }
     }
@@ -136,10 +164,7 @@ mod tests {
     /// A disk turned about y and squashed into an ellipse.
     fn skewed() -> Shape {
         let m = Affine3A::from_rotation_y(0.5) * Affine3A::from_scale(Vec3::new(0.8, 0.5, 1.0));
-        Shape::Disk(Disk {
-            to_world: Transform::new(m).unwrap(),
-            flip_normals: false,
-        })
+        Shape::Disk(Disk::new(Transform::new(m).unwrap(), false))
     }
 
     #[test]
@@ -154,10 +179,7 @@ mod tests {
 
     #[test]
     fn hit_and_miss() {
-        let s = Shape::Disk(Disk {
-            to_world: Transform::IDENTITY,
-            flip_normals: true,
-        });
+        let s = Shape::Disk(Disk::new(Transform::IDENTITY, true));
         let si = closest_hit(&s, &[], &Ray::new(Vec3::new(0.0, 0.5, 1.0), -Vec3::Z)).unwrap();
         assert!((si.uv.x - 0.5).abs() < 1e-6 && (si.uv.y - 0.25).abs() < 1e-6);
         assert_eq!(si.n, -Vec3::Z);

@@ -273,10 +273,7 @@ impl Shape {
             Shape::Rectangle(r) => {
                 Shape::Rectangle(Rectangle::new(t.after(&r.to_world), r.flip_normals))
             }
-            Shape::Disk(d) => Shape::Disk(Disk {
-                to_world: t.after(&d.to_world),
-                ..d
-            }),
+            Shape::Disk(d) => Shape::Disk(Disk::new(t.after(&d.to_world), d.flip_normals)),
             Shape::Cylinder(c) => Shape::Cylinder(Cylinder {
                 to_world: t.after(&c.to_world),
                 ..c
