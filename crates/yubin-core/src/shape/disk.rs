@@ -63,16 +63,6 @@ impl Disk {
             flip_normals,
         ))
     }
-
-    /// Object to world.
-    pub fn to_world(&self) -> &Transform {
-        &self.to_world
-    }
-
-    /// Whether it faces −z.
-    pub fn flip_normals(&self) -> bool {
-        self.flip_normals
-    }
 }
 
 impl Disk {

@@ -90,16 +90,6 @@ impl Rectangle {
             flip_normals,
         ))
     }
-
-    /// Object to world.
-    pub fn to_world(&self) -> &Transform {
-        &self.to_world
-    }
-
-    /// Whether it faces −z.
-    pub fn flip_normals(&self) -> bool {
-        self.flip_normals
-    }
 }
 
 impl Rectangle {
