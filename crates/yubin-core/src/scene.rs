@@ -1603,6 +1603,17 @@ mod tests {
             None,
         )
         .unwrap();
+        b.add_shape(
+            Shape::Cube(crate::shape::Cube::new(
+                t(Affine3A::from_translation(Vec3::new(-2.0, -2.0, -2.0))
+                    * Affine3A::from_rotation_y(0.7)
+                    * Affine3A::from_scale(Vec3::new(0.6, 0.4, 0.5))),
+                false,
+            )),
+            None,
+            None,
+        )
+        .unwrap();
         let g = b.add_group();
         let mut small = cube_mesh();
         small.transform(&t(Affine3A::from_scale(Vec3::splat(0.3))));

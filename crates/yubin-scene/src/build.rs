@@ -495,7 +495,13 @@ impl Builder<'_> {
             _ => {}
         }
         let bsdf = self.shape_bsdf(obj)?;
-        let shape = match yubin_core::shape::from_params(&mut ObjParams { obj, b: self })? {
+        let built = yubin_core::shape::from_params(&mut ObjParams { obj, b: self })?;
+        let emission = self.area_radiance(obj)?;
+        let shape = match Self::cube_as_mesh(
+            built,
+            emission.is_some(),
+            bsdf.is_some_and(|b| self.sb.needs_mikktspace(b)),
+        ) {
             BuiltShape::Analytic(shape) => shape,
             BuiltShape::Mesh(mut mesh) => {
                 self.prepare_tangents(obj, bsdf, &mut mesh)?;
@@ -507,7 +513,6 @@ impl Builder<'_> {
         if let Some(b) = bsdf {
             self.check_attributes(obj, &shape, b)?;
         }
-        let emission = self.area_radiance(obj)?;
         let id = self
             .sb
             .add_shape_with_emitter(group, shape, bsdf, emission.map(|(e, _)| e))
@@ -523,6 +528,18 @@ impl Builder<'_> {
                 .map_err(|e| obj.error(e.to_string()))?;
         }
         Ok(())
+    }
+
+    /// A `cube` that emits, or whose BSDF reads MikkTSpace tangents, as
+    /// its 12-triangle mesh: the light hierarchy bounds a mesh's triangles
+    /// one by one, and tangents are computed for meshes.
+    fn cube_as_mesh(built: BuiltShape, emits: bool, needs_tangents: bool) -> BuiltShape {
+        match built {
+            BuiltShape::Analytic(Shape::Cube(c)) if emits || needs_tangents => {
+                BuiltShape::Mesh(c.mesh())
+            }
+            other => other,
+        }
     }
 
     /// The mesh in the file `obj` (an `obj`, `ply` or `serialized` shape)

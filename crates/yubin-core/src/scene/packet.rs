@@ -310,8 +310,8 @@ mod tests {
             }
         }
         assert!(tested > 2000, "{tested} hits");
-        // Spheres, rectangles and disks.
-        assert_eq!(kinds.len(), 3);
+        // Spheres, rectangles, disks and cubes.
+        assert_eq!(kinds.len(), 4);
     }
 
     /// A shape's packet test as bits: the mask, then per lane the
@@ -347,7 +347,7 @@ mod tests {
         run(cases)
     }
 
-    /// The AVX2 sphere, rectangle and disk tests give the portable ones'
+    /// The AVX2 sphere, rectangle, disk and cube tests give the portable ones'
     /// hits bit for bit (which equal the single-ray tests', above).
     #[test]
     fn avx2_shape_tests_equal_portable_ones() {

@@ -9,7 +9,8 @@
 //! (`target-cpu`) has `wide` in AVX registers already and uses the
 //! portable tests.
 
-use super::{Disk, Rectangle, Shape, Sphere};
+use super::cube::face_code;
+use super::{Cube, Disk, Rectangle, Shape, Sphere};
 use crate::math::{RayPacket, Transform};
 use std::arch::x86_64::{
     __m256, _mm256_add_ps, _mm256_and_ps, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_cmp_ps,
@@ -46,6 +47,7 @@ pub(crate) fn shape_packet_avx2(
         }
         Shape::Rectangle(r) => Some(rectangle(r, rays, reg(t_max))),
         Shape::Disk(d) => Some(disk(d, rays, reg(t_max))),
+        Shape::Cube(c) => Some(cube(c, rays, reg(t_max))),
         Shape::Mesh(_) | Shape::Cylinder(_) => None,
     }
 }
@@ -153,4 +155,56 @@ fn disk(d: &Disk, rays: &RayPacket, t_max: __m256) -> (u32, f32x8, [f32x8; 2]) {
     let r2 = _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y));
     let inside = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(r2, _mm256_set1_ps(1.0))) as u32;
     (hit & inside, lanes(t), [lanes(x), lanes(y)])
+}
+
+/// [`Cube::intersect_packet`]: the slabs' entry and exit distances with
+/// the faces crossed there, the first axis' taken as they are.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn cube(c: &Cube, rays: &RayPacket, t_max: __m256) -> (u32, f32x8, [f32x8; 2]) {
+    let m = &c.to_world.inv;
+    let columns = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
+    let zero = _mm256_setzero_ps();
+    let one = _mm256_set1_ps(1.0);
+    let minus_one = _mm256_sub_ps(zero, one);
+    let (mut near, mut near_face, mut far, mut far_face) = (zero, zero, zero, zero);
+    for i in 0..3 {
+        let o = _mm256_add_ps(
+            linear(columns, i, &rays.o),
+            _mm256_set1_ps(m.translation[i]),
+        );
+        let inv_d = _mm256_div_ps(one, linear(columns, i, &rays.d));
+        let t0 = _mm256_mul_ps(_mm256_sub_ps(minus_one, o), inv_d);
+        let t1 = _mm256_mul_ps(_mm256_sub_ps(one, o), inv_d);
+        let lo = _mm256_set1_ps(face_code(i, false));
+        let hi = _mm256_set1_ps(face_code(i, true));
+        let ordered = _mm256_cmp_ps::<_CMP_LT_OQ>(t0, t1);
+        let (n, n_face) = (
+            _mm256_blendv_ps(t1, t0, ordered),
+            _mm256_blendv_ps(hi, lo, ordered),
+        );
+        let (f, f_face) = (
+            _mm256_blendv_ps(t0, t1, ordered),
+            _mm256_blendv_ps(lo, hi, ordered),
+        );
+        if i == 0 {
+            (near, near_face, far, far_face) = (n, n_face, f, f_face);
+        } else {
+            let keep = _mm256_cmp_ps::<_CMP_GT_OQ>(near, n);
+            near = _mm256_blendv_ps(n, near, keep);
+            near_face = _mm256_blendv_ps(n_face, near_face, keep);
+            let keep = _mm256_cmp_ps::<_CMP_LT_OQ>(far, f);
+            far = _mm256_blendv_ps(f, far, keep);
+            far_face = _mm256_blendv_ps(f_face, far_face, keep);
+        }
+    }
+    let t_min = reg(rays.t_min);
+    let entering = _mm256_cmp_ps::<_CMP_GT_OQ>(near, t_min);
+    let t = _mm256_blendv_ps(far, near, entering);
+    let face = _mm256_blendv_ps(far_face, near_face, entering);
+    let bits = |m: __m256| _mm256_movemask_ps(m) as u32;
+    let hit = bits(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
+        & bits(_mm256_cmp_ps::<_CMP_GT_OQ>(t, t_min))
+        & bits(_mm256_cmp_ps::<_CMP_LT_OQ>(t, t_max));
+    (hit, lanes(t), [lanes(face), f32x8::ZERO])
 }

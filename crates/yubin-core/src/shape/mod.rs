@@ -7,8 +7,9 @@
 //! the closed enum stored in the scene; triangle data lives in scene-owned
 //! [`TriangleMesh`]es referenced by index.
 //!
-//! `cube` is not a variant: like Mitsuba, it is built as a 12-triangle
-//! mesh ([`cube::cube_mesh`]).
+//! `cube` is analytic ([`Cube`], one slab test where its mesh would test
+//! twelve triangles) with the geometry of Mitsuba's 12-triangle cube
+//! mesh, which an emitting cube stays ([`cube::cube_mesh`]).
 
 #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
 mod avx2;
@@ -22,6 +23,7 @@ mod triangle;
 
 #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
 pub(crate) use avx2::shape_packet_avx2;
+pub use cube::Cube;
 pub use cylinder::Cylinder;
 pub use disk::Disk;
 #[cfg(test)]
@@ -64,7 +66,7 @@ pub const PLUGINS: &[(&str, ShapeFromParams)] = &[
         Ok(BuiltShape::Mesh(TriangleMesh::from_params(p)?))
     }),
     ("cube", |p| {
-        Ok(BuiltShape::Mesh(cube::Cube::from_params(p)?))
+        Ok(BuiltShape::Analytic(Shape::Cube(Cube::from_params(p)?)))
     }),
     ("sphere", |p| {
         Ok(BuiltShape::Analytic(Shape::Sphere(Sphere::from_params(p)?)))
@@ -228,12 +230,14 @@ pub enum Shape {
     Disk(Disk),
     /// `cylinder`.
     Cylinder(Cylinder),
+    /// `cube`.
+    Cube(Cube),
 }
 
 impl Shape {
     /// [`ShapeModel::intersect`] for the eight rays of `rays` at once, each
     /// within its lane of `t_max`, for the shapes that have such a test
-    /// (spheres, rectangles, disks; `None` for the others): the lanes
+    /// (spheres, rectangles, disks, cubes; `None` for the others): the lanes
     /// that hit, their distances and their [`PrimHit::uv`], the
     /// single-ray test's values bit for bit.
     #[inline(always)]
@@ -249,6 +253,7 @@ impl Shape {
             }
             Shape::Rectangle(r) => Some(r.intersect_packet(rays, t_max)),
             Shape::Disk(d) => Some(d.intersect_packet(rays, t_max)),
+            Shape::Cube(c) => Some(c.intersect_packet(rays, t_max)),
             Shape::Mesh(_) | Shape::Cylinder(_) => None,
         }
     }
@@ -278,6 +283,7 @@ impl Shape {
                 to_world: t.after(&c.to_world),
                 ..c
             }),
+            Shape::Cube(c) => Shape::Cube(Cube::new(t.after(&c.to_world), c.flip_normals)),
         })
     }
 }
@@ -290,6 +296,7 @@ macro_rules! dispatch {
             Shape::Rectangle($s) => $e,
             Shape::Disk($s) => $e,
             Shape::Cylinder($s) => $e,
+            Shape::Cube($s) => $e,
         }
     };
 }
