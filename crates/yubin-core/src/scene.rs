@@ -621,15 +621,30 @@ impl Scene {
                         return true;
                     }
                 }
-                self.item_occludes(g, start..start + count, ray)
+                g.items[start..start + count]
+                    .iter()
+                    .any(|item| self.item_blocks(item, ray))
             })
+    }
+
+    /// Whether `item` (not a triangle) blocks the ray: a shape's test
+    /// inline, in the caller's instruction set; an instance out of line.
+    #[inline(always)]
+    fn item_blocks(&self, item: &Item, r: &Ray) -> bool {
+        match *item {
+            Item::Triangle { .. } | Item::Empty => false,
+            Item::Prim { shape, prim } => self.shapes[shape as usize]
+                .intersect(&self.meshes, prim, r)
+                .is_some(),
+            Item::Instance(_) => self.item_occludes(std::slice::from_ref(item), r),
+        }
     }
 
     /// Whether an item (not a triangle) at `range` of a group's leaf order
     /// blocks the ray; out of line like [`Scene::closest_item`].
     #[inline(never)]
-    fn item_occludes(&self, g: &Group, range: std::ops::Range<usize>, r: &Ray) -> bool {
-        g.items[range].iter().any(|item| match *item {
+    fn item_occludes(&self, items: &[Item], r: &Ray) -> bool {
+        items.iter().any(|item| match *item {
             Item::Triangle { .. } | Item::Empty => false,
             Item::Prim { shape, prim } => self.shapes[shape as usize]
                 .intersect(&self.meshes, prim, r)

@@ -124,6 +124,19 @@ pub fn exp_or_zero(x: f32) -> f32 {
     }
 }
 
+/// sin a and cos a for |a| ≤ π/4, without libm's range reduction and call
+/// (`sincosf` was 3.4 % of the Cornell box's time, nearly all from the
+/// concentric disk map): Cephes' minimax polynomials for that interval
+/// (Moshier 1989, "Methods and Programs for Mathematical Functions";
+/// `sinf.c`), within 2·10⁻⁷ of the exact values (`quarter_sin_cos_is_accurate`).
+#[inline]
+pub fn sin_cos_quarter(a: f32) -> (f32, f32) {
+    let z = a * a;
+    let sin = ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * a + a;
+    let cos = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
+    (sin, cos)
+}
+
 /// Offsets `p` along the geometric normal `n`, to the side that `d` points
 /// to, so that a ray leaving a surface doesn't hit it again.
 #[inline]
@@ -160,6 +173,28 @@ pub fn spawn_ray_to(p: Vec3, n: Vec3, target: Vec3) -> Ray {
 
 #[cfg(test)]
 mod tests {
+    /// Within 2·10⁻⁷ of the exact sine and cosine over [−π/4, π/4],
+    /// where an error of 10⁻⁶ (a coefficient's fourth digit) fails.
+    #[test]
+    fn quarter_sin_cos_is_accurate() {
+        let n = 200_000;
+        for i in 0..=n {
+            let a = std::f32::consts::FRAC_PI_4 * (2.0 * i as f32 / n as f32 - 1.0);
+            let (s, c) = super::sin_cos_quarter(a);
+            let exact = (a as f64).sin_cos();
+            assert!(
+                (s as f64 - exact.0).abs() < 2e-7,
+                "sin {a}: {s} vs {}",
+                exact.0
+            );
+            assert!(
+                (c as f64 - exact.1).abs() < 2e-7,
+                "cos {a}: {c} vs {}",
+                exact.1
+            );
+        }
+    }
+
     #[test]
     fn exp_or_zero_is_exp() {
         for x in [-200.0f32, -104.0, -103.98, -103.9, -87.5, -10.0, 0.0, 3.0] {

@@ -23,7 +23,7 @@ pub const SPHERICAL_MIN_SOLID_ANGLE: f32 = 1e-3;
 pub const SPHERICAL_MAX_SOLID_ANGLE: f32 = std::f32::consts::TAU - 0.06;
 
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, PI};
 
 /// Uniform point on the unit disk by Shirley & Chiu's concentric map.
 #[inline]
@@ -32,12 +32,15 @@ pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, FRAC_PI_4 * (o.y / o.x))
+    // θ = a in the wedges around ±x, π/2 − a in those around ±y, with
+    // |a| ≤ π/4 either way.
+    if o.x.abs() > o.y.abs() {
+        let (sin, cos) = crate::math::sin_cos_quarter(FRAC_PI_4 * (o.y / o.x));
+        o.x * Vec2::new(cos, sin)
     } else {
-        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
-    };
-    r * Vec2::new(theta.cos(), theta.sin())
+        let (sin, cos) = crate::math::sin_cos_quarter(FRAC_PI_4 * (o.x / o.y));
+        o.y * Vec2::new(sin, cos)
+    }
 }
 
 /// Cosine-weighted direction on the +z hemisphere (Malley's method).

@@ -27,7 +27,7 @@ use super::{make_interaction_in_frame, PositionSample, PrimHit, ShapeModel, Tria
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Frame, Ray, RayPacket, Transform};
 use crate::params::{ParamError, Params};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec3A};
 use wide::{f32x8, CmpGt, CmpLe, CmpLt};
 
 /// The transformed cube [-1, 1]³.
@@ -119,28 +119,31 @@ impl Cube {
     /// face's plane) picks the same side in both.
     #[inline]
     fn slabs(&self, ray: &Ray) -> [(f32, f32); 2] {
-        let o = self.to_world.inv.transform_point3(ray.o);
-        let d = self.to_world.inv.transform_vector3(ray.d);
-        let inv_d = Vec3::ONE / d;
-        let t0 = (Vec3::NEG_ONE - o) * inv_d;
-        let t1 = (Vec3::ONE - o) * inv_d;
-        let (mut near, mut far) = ((0.0, 0.0), (0.0, 0.0));
-        for i in 0..3 {
-            let (lo, hi) = (face_code(i, false), face_code(i, true));
-            let ordered = t0[i] < t1[i];
-            let (n, f) = if ordered {
-                ((t0[i], lo), (t1[i], hi))
+        let o = self.to_world.inv.transform_point3a(ray.o.into());
+        let d = self.to_world.inv.transform_vector3a(ray.d.into());
+        let inv_d = Vec3A::ONE / d;
+        let t0 = (Vec3A::NEG_ONE - o) * inv_d;
+        let t1 = (Vec3A::ONE - o) * inv_d;
+        let ordered = t0.cmplt(t1);
+        let (lo, hi) = (Vec3A::new(0.0, 1.0, 2.0), Vec3A::new(3.0, 4.0, 5.0));
+        let near = Vec3A::select(ordered, t0, t1);
+        let near_face = Vec3A::select(ordered, lo, hi);
+        let far = Vec3A::select(ordered, t1, t0);
+        let far_face = Vec3A::select(ordered, hi, lo);
+        let (mut entry, mut exit) = ((near.x, near_face.x), (far.x, far_face.x));
+        for i in 1..3 {
+            entry = if entry.0 > near[i] {
+                entry
             } else {
-                ((t1[i], hi), (t0[i], lo))
+                (near[i], near_face[i])
             };
-            if i == 0 {
-                (near, far) = (n, f);
+            exit = if exit.0 < far[i] {
+                exit
             } else {
-                near = if near.0 > n.0 { near } else { n };
-                far = if far.0 < f.0 { far } else { f };
-            }
+                (far[i], far_face[i])
+            };
         }
-        [near, far]
+        [entry, exit]
     }
 
     /// [`ShapeModel::intersect`] for the eight rays of `rays` at once, each
@@ -191,7 +194,7 @@ impl Cube {
 }
 
 /// The face with outward normal ±e_`axis` as a hit's [`PrimHit::uv`] x:
-/// the axis, plus 3 for the + face.
+/// the axis, plus 3 for the + face (as `slabs` spells them out).
 #[inline]
 pub(crate) fn face_code(axis: usize, positive: bool) -> f32 {
     (axis + 3 * usize::from(positive)) as f32

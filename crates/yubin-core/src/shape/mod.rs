@@ -310,7 +310,7 @@ impl ShapeModel for Shape {
     fn prim_bounds(&self, meshes: &[TriangleMesh], prim: u32) -> Bounds3 {
         dispatch!(self, s => s.prim_bounds(meshes, prim))
     }
-    #[inline]
+    #[inline(always)]
     fn intersect(&self, meshes: &[TriangleMesh], prim: u32, ray: &Ray) -> Option<PrimHit> {
         dispatch!(self, s => s.intersect(meshes, prim, ray))
     }
