@@ -78,11 +78,8 @@ impl Cube {
 
     /// Builds the cube from its scene parameters.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
-        let flip_normals = p.boolean_or("flip_normals", false)?;
-        Ok(Self::new(
-            p.transform_or_identity("to_world")?,
-            flip_normals,
-        ))
+        let (to_world, flip_normals) = super::placement(p)?;
+        Ok(Self::new(to_world, flip_normals))
     }
 
     /// The same cube as a 12-triangle mesh in world space.

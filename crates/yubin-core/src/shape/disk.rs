@@ -57,11 +57,8 @@ impl Disk {
 
     /// Builds the disk from its scene parameters.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
-        let flip_normals = p.boolean_or("flip_normals", false)?;
-        Ok(Self::new(
-            p.transform_or_identity("to_world")?,
-            flip_normals,
-        ))
+        let (to_world, flip_normals) = super::placement(p)?;
+        Ok(Self::new(to_world, flip_normals))
     }
 }
 

@@ -86,6 +86,13 @@ pub const PLUGINS: &[(&str, ShapeFromParams)] = &[
     }),
 ];
 
+/// The `to_world` and `flip_normals` of a shape placed by a transform
+/// (`rectangle`, `disk`, `cube`).
+pub(crate) fn placement(p: &mut dyn Params) -> Result<(Transform, bool), ParamError> {
+    let flip_normals = p.boolean_or("flip_normals", false)?;
+    Ok((p.transform_or_identity("to_world")?, flip_normals))
+}
+
 /// Builds the shape `p` describes, by its plugin type.
 pub fn from_params(p: &mut dyn Params) -> Result<BuiltShape, ParamError> {
     let known =
