@@ -850,7 +850,11 @@ impl Bvh {
             };
         }
         let extent = Extent::of(&prims);
-        let root = build_recursive(&mut prims, 0, 0, extent, &mut [[Bin::EMPTY; BINS]; 3]);
+        let root = if one_node_of_singletons(&prims) {
+            singletons(&mut prims, 0, extent)
+        } else {
+            build_recursive(&mut prims, 0, 0, extent, &mut [[Bin::EMPTY; BINS]; 3])
+        };
         let bounds = root.bounds();
         let mut nodes = Vec::new();
         let root = collapse(root, &mut nodes);
@@ -1400,6 +1404,42 @@ fn build_recursive(
     BuildNode::inner(extent.bounds.to_bounds(), [children.0, children.1])
 }
 
+/// Whether the primitives fit one wide node as leaves of one each: at
+/// most [`WIDTH`] of them, none a packed triangle. Such a tree costs one
+/// node test, after which a ray tests only the primitives whose own boxes
+/// it meets; shared leaves, which the SAH prefers when it prices a split
+/// as a further node visit, made every ray inside a room test its walls
+/// in pairs.
+fn one_node_of_singletons(prims: &[BuildPrim]) -> bool {
+    prims.len() <= WIDTH && prims.iter().all(|p| p.cost() != PrimCost::Packed)
+}
+
+/// A binary tree with one primitive per leaf, halving along the widest
+/// axis of the centroids (for [`one_node_of_singletons`]).
+fn singletons(prims: &mut [BuildPrim], start: usize, extent: Extent) -> BuildNode {
+    if prims.len() <= 1 {
+        return BuildNode::Leaf {
+            bounds: extent.bounds.to_bounds(),
+            start,
+            count: prims.len(),
+            cost: extent.bounds.area()
+                * prims
+                    .iter()
+                    .fold(Load::default(), |l, p| l.add(p.cost()))
+                    .cost(),
+        };
+    }
+    let (mid, left_extent, right_extent) = halve(prims, extent.centroids.to_bounds().max_axis());
+    let (left, right) = prims.split_at_mut(mid);
+    BuildNode::inner(
+        extent.bounds.to_bounds(),
+        [
+            singletons(left, start, left_extent),
+            singletons(right, start + mid, right_extent),
+        ],
+    )
+}
+
 /// The box around a bin's primitives and the sum of their costs. (Their
 /// centroids' box is not needed: partitioning gathers both sides' extents
 /// as it moves the primitives.)
@@ -1593,11 +1633,16 @@ fn split_in_middle(prims: &mut [BuildPrim], axis: usize) -> Option<(usize, Exten
     if fits_in_leaf(prims) {
         return None;
     }
+    Some(halve(prims, axis))
+}
+
+/// Splits `prims` at the median of their centroids along `axis`.
+fn halve(prims: &mut [BuildPrim], axis: usize) -> (usize, Extent, Extent) {
     let mid = prims.len() / 2;
     prims.select_nth_unstable_by(mid, |a, b| {
         a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
     });
-    Some((mid, Extent::of(&prims[..mid]), Extent::of(&prims[mid..])))
+    (mid, Extent::of(&prims[..mid]), Extent::of(&prims[mid..]))
 }
 
 /// Moves the primitives for which `pred` holds to the front; returns
@@ -1648,6 +1693,41 @@ mod tests {
     use crate::sampler::Pcg32;
     use crate::sampling::square_to_uniform_sphere;
     use glam::Vec3;
+
+    /// Up to eight shapes tested alone (a room's walls, its light and two
+    /// boxes) get one node with a leaf each; nine, or one packed
+    /// triangle among them, go to the SAH, which pairs the walls.
+    #[test]
+    fn eight_lone_shapes_are_one_node_of_single_leaves() {
+        let wall = |axis: usize, side: f32| {
+            let mut min = Vec3::splat(-1.0);
+            let mut max = Vec3::splat(1.0);
+            min[axis] = side;
+            max[axis] = side;
+            Bounds3 { min, max }
+        };
+        let mut room: Vec<Bounds3> = (0..3).flat_map(|a| [wall(a, -1.0), wall(a, 1.0)]).collect();
+        room.push(Bounds3 {
+            min: Vec3::new(-0.5, -1.0, -0.5),
+            max: Vec3::new(0.0, 0.2, 0.0),
+        });
+        room.push(Bounds3 {
+            min: Vec3::new(0.1, -1.0, 0.1),
+            max: Vec3::new(0.6, -0.4, 0.6),
+        });
+        let stats = Bvh::build(&room).stats();
+        assert_eq!((stats.nodes, stats.leaves, stats.leaf_prims), (1, 8, 8));
+        let with_triangle = Bvh::build_with_costs(&room, |i| {
+            if i == 7 {
+                PrimCost::Packed
+            } else {
+                PrimCost::Alone(1.0)
+            }
+        });
+        assert!(with_triangle.stats().leaves < 8);
+        room.push(wall(0, 0.0));
+        assert!(Bvh::build(&room).stats().leaves < 9);
+    }
 
     /// The AVX2 node test on this CPU, or `None` where it has no AVX2:
     /// (entry distances' bits, mask) per (ray, node) pair. Compiled for
