@@ -1,6 +1,6 @@
 //! Surface interactions: everything the integrator needs about a hit.
 
-use crate::math::{spawn_ray, spawn_ray_to, Frame, Ray};
+use crate::math::{shadow_ray_to, spawn_ray, spawn_ray_to, Frame, Ray};
 use glam::{Vec2, Vec3, Vec4};
 
 /// A ray–surface hit, in world space.
@@ -67,5 +67,12 @@ impl SurfaceInteraction {
     #[inline]
     pub fn spawn_ray_to(&self, target: Vec3) -> Ray {
         spawn_ray_to(self.p, self.n, target)
+    }
+
+    /// A ray that tests the visibility of `target` from the surface alone
+    /// (its direction not unit length: [`shadow_ray_to`]).
+    #[inline]
+    pub fn shadow_ray_to(&self, target: Vec3) -> Ray {
+        shadow_ray_to(self.p, self.n, target)
     }
 }

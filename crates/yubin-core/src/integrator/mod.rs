@@ -371,7 +371,7 @@ pub(crate) fn sample_light(
         return Rgb::ZERO;
     }
     let shadow = if ls.dist.is_finite() {
-        si.spawn_ray_to(si.p + ls.wi * ls.dist)
+        si.shadow_ray_to(si.p + ls.wi * ls.dist)
     } else {
         si.spawn_ray(ls.wi)
     };

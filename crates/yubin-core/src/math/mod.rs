@@ -171,6 +171,21 @@ pub fn spawn_ray_to(p: Vec3, n: Vec3, target: Vec3) -> Ray {
     }
 }
 
+/// [`spawn_ray_to`] for a visibility test alone: `d` is the whole offset
+/// from the origin to `target`, not a unit vector, and `t_max` just short
+/// of 1. No square root and division stand between the light sample and
+/// the traversal (every shape's test takes any direction's length).
+#[inline]
+pub fn shadow_ray_to(p: Vec3, n: Vec3, target: Vec3) -> Ray {
+    let o = offset_ray_origin(p, n, target - p);
+    Ray {
+        o,
+        d: target - o,
+        t_min: 0.0,
+        t_max: 1.0 - SHADOW_EPSILON,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     /// Within 2·10⁻⁷ of the exact sine and cosine over [−π/4, π/4],
