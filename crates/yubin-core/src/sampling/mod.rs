@@ -28,26 +28,32 @@ use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, PI};
 /// Uniform point on the unit disk by Shirley & Chiu's concentric map.
 #[inline]
 pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
-    let o = 2.0 * u - Vec2::ONE;
-    if o.x == 0.0 && o.y == 0.0 {
-        return Vec2::ZERO;
-    }
-    // θ = a in the wedges around ±x, π/2 − a in those around ±y, with
-    // |a| ≤ π/4 either way.
-    if o.x.abs() > o.y.abs() {
-        let (sin, cos) = crate::math::sin_cos_quarter(FRAC_PI_4 * (o.y / o.x));
-        o.x * Vec2::new(cos, sin)
-    } else {
-        let (sin, cos) = crate::math::sin_cos_quarter(FRAC_PI_4 * (o.x / o.y));
-        o.y * Vec2::new(sin, cos)
-    }
+    concentric_with_radius(u).0
 }
 
-/// Cosine-weighted direction on the +z hemisphere (Malley's method).
+/// [`square_to_uniform_disk_concentric`] and the point's distance from
+/// the centre, which the map knows before the angle: θ = a in the wedges
+/// around ±x, π/2 − a in those around ±y, |a| ≤ π/4 either way, chosen by
+/// selects (which wedge a sample falls in is a coin flip).
+#[inline]
+fn concentric_with_radius(u: Vec2) -> (Vec2, f32) {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return (Vec2::ZERO, 0.0);
+    }
+    let around_x = o.x.abs() > o.y.abs();
+    let (r, across) = if around_x { (o.x, o.y) } else { (o.y, o.x) };
+    let (sin, cos) = crate::math::sin_cos_quarter(FRAC_PI_4 * (across / r));
+    let (c, s) = if around_x { (cos, sin) } else { (sin, cos) };
+    (r * Vec2::new(c, s), r)
+}
+
+/// Cosine-weighted direction on the +z hemisphere (Malley's method). The
+/// height comes from the disk point's radius, in parallel with its angle.
 #[inline]
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = square_to_uniform_disk_concentric(u);
-    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    let (d, r) = concentric_with_radius(u);
+    let z = (1.0 - r * r).max(0.0).sqrt();
     Vec3::new(d.x, d.y, z)
 }
 
