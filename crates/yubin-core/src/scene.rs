@@ -363,6 +363,10 @@ pub struct Scene {
     /// Some shape lets light straight through with `thindielectric` slabs
     /// counted ([`Bsdf::lets_light_through`]).
     has_null_transmission: bool,
+    /// Nothing reads a hit's uv: the scene has no textures and its
+    /// integrator writes no uv ([`SceneBuilder::uv_unread_by_integrator`]);
+    /// spheres then skip their angles' arctangents.
+    uv_unread: bool,
 }
 
 impl Scene {
@@ -665,7 +669,10 @@ impl Scene {
         let mut si = match h.instance {
             // The shape's interaction already looks back along `closest`,
             // whose direction is `ray`'s.
-            None => shape.interaction(&self.meshes, h.prim, closest, h.hit),
+            None => match shape {
+                Shape::Sphere(s) if self.uv_unread => s.interaction_without_uv(closest, h.hit),
+                _ => shape.interaction(&self.meshes, h.prim, closest, h.hit),
+            },
             Some(inst) => {
                 let t = &self.instances[inst as usize].to_world;
                 let local_ray = to_local_ray(closest, t);
@@ -953,6 +960,7 @@ pub struct SceneBuilder {
     emitter_options: Vec<EmitterOptions>,
     light_selection: LightSelection,
     mis_compensation: bool,
+    uv_unread_by_integrator: bool,
     groups: Vec<Vec<Item>>,
     instances: Vec<Instance>,
     group_emitters: Vec<GroupEmitter>,
@@ -982,6 +990,7 @@ impl SceneBuilder {
             emitter_options: Vec::new(),
             light_selection: LightSelection::default(),
             mis_compensation: false,
+            uv_unread_by_integrator: false,
             groups: vec![Vec::new()],
             instances: Vec::new(),
             group_emitters: Vec::new(),
@@ -1315,6 +1324,15 @@ impl SceneBuilder {
         self
     }
 
+    /// Whether the integrator leaves hits' uv unread
+    /// ([`crate::integrator::Integrator::reads_uv`]); with no textures in
+    /// the scene either, shapes may then skip computing it. Off (uv always
+    /// computed) unless the integrator says so.
+    pub fn uv_unread_by_integrator(&mut self, unread: bool) -> &mut Self {
+        self.uv_unread_by_integrator = unread;
+        self
+    }
+
     /// Sets the camera.
     pub fn camera(&mut self, c: Camera) -> &mut Self {
         self.camera = Some(c);
@@ -1502,7 +1520,9 @@ impl SceneBuilder {
             },
             radius,
         );
+        let uv_unread = self.uv_unread_by_integrator && self.materials.textures.is_empty();
         Ok(Scene {
+            uv_unread,
             meshes: self.meshes,
             shapes: self.shapes,
             shape_info: self.shape_info,

@@ -156,6 +156,7 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         b.sb.light_selection(selection);
     }
     b.sb.mis_compensation(integrator.mis_compensation());
+    b.sb.uv_unread_by_integrator(!integrator.reads_uv());
     let scene =
         b.sb.build()
             .map_err(|e| SceneError::at(&root.loc, e.to_string()))?;

@@ -111,3 +111,29 @@ fn aov_compensates_when_every_nested_integrator_does() {
     )));
     assert!(!compensates(&aov("")));
 }
+
+/// A sphere's hits carry their uv wherever something can read it: an
+/// `aov` integrator (its uv AOV) or any texture of the scene; a path
+/// tracer in an untextured scene lets the sphere skip it.
+#[test]
+fn sphere_uv_is_computed_where_something_reads_it() {
+    let uv_seen = |integrator: &str, extra: &str| {
+        let xml = scene(integrator).replace(
+            "<shape type=\"sphere\"/>",
+            &format!("<shape type=\"sphere\"/>{extra}"),
+        );
+        let loaded = load_scene_str(&xml, Path::new("aov.xml"), &[]).unwrap();
+        let ray = yubin_core::math::Ray::new(
+            glam::Vec3::new(0.3, 0.2, -5.0),
+            glam::Vec3::new(0.0, 0.0, 1.0),
+        );
+        loaded.scene.intersect(&ray).unwrap().uv
+    };
+    let aov = r#"<integrator type="aov"><string name="aovs" value="t:uv"/><integrator type="path" name="image"/></integrator>"#;
+    let path = r#"<integrator type="path"/>"#;
+    let texture = r#"<shape type="rectangle"><transform name="to_world"><translate z="9"/></transform>
+        <bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>"#;
+    assert_ne!(uv_seen(aov, ""), glam::Vec2::ZERO);
+    assert_ne!(uv_seen(path, texture), glam::Vec2::ZERO);
+    assert_eq!(uv_seen(path, ""), glam::Vec2::ZERO);
+}

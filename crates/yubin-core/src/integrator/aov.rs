@@ -325,6 +325,10 @@ impl Integrator for AovIntegrator {
     }
 
     /// When every nested integrator may (they share the scene's lights).
+    fn reads_uv(&self) -> bool {
+        true
+    }
+
     fn mis_compensation(&self) -> bool {
         !self.nested.is_empty() && self.nested.iter().all(|(_, i)| i.mis_compensation())
     }

@@ -146,6 +146,10 @@ impl Integrator for DenoiserGuides {
         self.inner.light_selection()
     }
 
+    fn reads_uv(&self) -> bool {
+        self.inner.reads_uv()
+    }
+
     fn mis_compensation(&self) -> bool {
         self.inner.mis_compensation()
     }

@@ -154,6 +154,13 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
         false
     }
 
+    /// Whether the integrator reads hits' uv itself (not through textures,
+    /// which the scene accounts for): an AOV of uv does. Where neither it
+    /// nor a texture does, shapes may leave uv out of their hits.
+    fn reads_uv(&self) -> bool {
+        false
+    }
+
     /// The particle tracer, for integrators that trace paths from the
     /// lights and so render through their own loop
     /// ([`ParticleTracer::render`]) instead of per camera ray.

@@ -53,6 +53,10 @@ impl Integrator for MomentIntegrator {
         self.nested.light_selection()
     }
 
+    fn reads_uv(&self) -> bool {
+        self.nested.reads_uv()
+    }
+
     fn mis_compensation(&self) -> bool {
         self.nested.mis_compensation()
     }

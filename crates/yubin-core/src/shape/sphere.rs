@@ -138,19 +138,66 @@ impl Sphere {
     /// centre, with the sines and cosines of its azimuth φ and polar angle
     /// θ in the sphere's frame, read off the direction itself (no
     /// trigonometric calls: sin θ is its distance from the axis).
+    #[inline(always)]
     fn angles_of(&self, outward: Vec3) -> SphereAngles {
+        self.angles_with(outward, true)
+    }
+
+    /// [`Sphere::angles_of`], with uv left at zero unless `with_uv`.
+    #[inline(always)]
+    fn angles_with(&self, outward: Vec3, with_uv: bool) -> SphereAngles {
         let local = self.rotation.transpose() * outward;
         let rho = (local.x * local.x + local.y * local.y).sqrt();
-        let phi = azimuth(local.x, local.y);
-        let theta = crate::math::atan2(rho, local.z);
         let (sin_phi, cos_phi) = azimuth_sin_cos(local.x, local.y);
+        let uv = if with_uv {
+            let phi = azimuth(local.x, local.y);
+            let theta = crate::math::atan2(rho, local.z);
+            Vec2::new(phi / (2.0 * PI), theta / PI)
+        } else {
+            Vec2::ZERO
+        };
         SphereAngles {
-            uv: Vec2::new(phi / (2.0 * PI), theta / PI),
+            uv,
             sin_theta: rho,
             cos_theta: local.z,
             sin_phi,
             cos_phi,
         }
+    }
+}
+
+impl Sphere {
+    /// [`ShapeModel::interaction`] with uv left at zero, for scenes where
+    /// nothing reads it (two arctangents fewer per hit).
+    #[inline]
+    pub(crate) fn interaction_without_uv(&self, ray: &Ray, hit: PrimHit) -> SurfaceInteraction {
+        self.interaction_with(ray, hit, false)
+    }
+
+    #[inline(always)]
+    fn interaction_with(&self, ray: &Ray, hit: PrimHit, with_uv: bool) -> SurfaceInteraction {
+        let outward = (ray.at(hit.t) - self.center).normalize();
+        // Re-project onto the surface to undo round-off in t.
+        let p = self.center + outward * self.radius;
+        let SphereAngles {
+            uv,
+            sin_theta: sin_t,
+            cos_theta: cos_t,
+            sin_phi: sin_p,
+            cos_phi: cos_p,
+        } = self.angles_with(outward, with_uv);
+        let r = self.radius;
+        let dpdu = self.rotation * Vec3::new(-sin_p * sin_t, cos_p * sin_t, 0.0) * (2.0 * PI * r);
+        let dpdv = self.rotation * Vec3::new(cos_p * cos_t, sin_p * cos_t, -sin_t) * (PI * r);
+        make_interaction(
+            ray,
+            hit.t,
+            p,
+            self.outward_to_normal(outward),
+            uv,
+            dpdu,
+            dpdv,
+        )
     }
 }
 
@@ -238,28 +285,7 @@ impl ShapeModel for Sphere {
         ray: &Ray,
         hit: PrimHit,
     ) -> SurfaceInteraction {
-        let outward = (ray.at(hit.t) - self.center).normalize();
-        // Re-project onto the surface to undo round-off in t.
-        let p = self.center + outward * self.radius;
-        let SphereAngles {
-            uv,
-            sin_theta: sin_t,
-            cos_theta: cos_t,
-            sin_phi: sin_p,
-            cos_phi: cos_p,
-        } = self.angles_of(outward);
-        let r = self.radius;
-        let dpdu = self.rotation * Vec3::new(-sin_p * sin_t, cos_p * sin_t, 0.0) * (2.0 * PI * r);
-        let dpdv = self.rotation * Vec3::new(cos_p * cos_t, sin_p * cos_t, -sin_t) * (PI * r);
-        make_interaction(
-            ray,
-            hit.t,
-            p,
-            self.outward_to_normal(outward),
-            uv,
-            dpdu,
-            dpdv,
-        )
+        self.interaction_with(ray, hit, true)
     }
 
     fn surface_area(&self, _: &[TriangleMesh]) -> f32 {
