@@ -640,27 +640,19 @@ impl Scene {
             Item::Prim { shape, prim } => self.shapes[shape as usize]
                 .intersect(&self.meshes, prim, r)
                 .is_some(),
-            Item::Instance(_) => self.item_occludes(std::slice::from_ref(item), r),
+            Item::Instance(inst) => self.instance_occludes(inst, r),
         }
     }
 
-    /// Whether an item (not a triangle) at `range` of a group's leaf order
-    /// blocks the ray; out of line like [`Scene::closest_item`].
+    /// Whether instance `inst` blocks the ray; out of line like
+    /// [`Scene::closest_item`].
     #[inline(never)]
-    fn item_occludes(&self, items: &[Item], r: &Ray) -> bool {
-        items.iter().any(|item| match *item {
-            Item::Triangle { .. } | Item::Empty => false,
-            Item::Prim { shape, prim } => self.shapes[shape as usize]
-                .intersect(&self.meshes, prim, r)
-                .is_some(),
-            Item::Instance(inst) => {
-                let placed = &self.instances[inst as usize];
-                self.occluded_in_group(
-                    &self.groups[placed.group as usize],
-                    &to_local_ray(r, &placed.to_world),
-                )
-            }
-        })
+    fn instance_occludes(&self, inst: u32, r: &Ray) -> bool {
+        let placed = &self.instances[inst as usize];
+        self.occluded_in_group(
+            &self.groups[placed.group as usize],
+            &to_local_ray(r, &placed.to_world),
+        )
     }
 
     #[inline]

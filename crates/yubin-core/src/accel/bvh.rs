@@ -1365,16 +1365,7 @@ fn build_recursive(
 ) -> BuildNode {
     // Only built when it is the answer: summing the costs is a pass over
     // the primitives, which large nodes must not pay at every level.
-    let leaf = |prims: &[BuildPrim]| BuildNode::Leaf {
-        bounds: extent.bounds.to_bounds(),
-        start,
-        count: prims.len(),
-        cost: extent.bounds.area()
-            * prims
-                .iter()
-                .fold(Load::default(), |l, p| l.add(p.cost()))
-                .cost(),
-    };
+    let leaf = |prims: &[BuildPrim]| leaf_node(prims, start, &extent);
     if prims.len() <= 1 {
         return leaf(prims);
     }
@@ -1414,20 +1405,26 @@ fn one_node_of_singletons(prims: &[BuildPrim]) -> bool {
     prims.len() <= WIDTH && prims.iter().all(|p| p.cost() != PrimCost::Packed)
 }
 
+/// A leaf of `prims` (at `start` of the leaf order, within `extent`),
+/// with its SAH cost.
+fn leaf_node(prims: &[BuildPrim], start: usize, extent: &Extent) -> BuildNode {
+    BuildNode::Leaf {
+        bounds: extent.bounds.to_bounds(),
+        start,
+        count: prims.len(),
+        cost: extent.bounds.area()
+            * prims
+                .iter()
+                .fold(Load::default(), |l, p| l.add(p.cost()))
+                .cost(),
+    }
+}
+
 /// A binary tree with one primitive per leaf, halving along the widest
 /// axis of the centroids (for [`one_node_of_singletons`]).
 fn singletons(prims: &mut [BuildPrim], start: usize, extent: Extent) -> BuildNode {
     if prims.len() <= 1 {
-        return BuildNode::Leaf {
-            bounds: extent.bounds.to_bounds(),
-            start,
-            count: prims.len(),
-            cost: extent.bounds.area()
-                * prims
-                    .iter()
-                    .fold(Load::default(), |l, p| l.add(p.cost()))
-                    .cost(),
-        };
+        return leaf_node(prims, start, &extent);
     }
     let (mid, left_extent, right_extent) = halve(prims, extent.centroids.to_bounds().max_axis());
     let (left, right) = prims.split_at_mut(mid);
