@@ -96,6 +96,7 @@ impl AreaLight {
     }
 
     /// The light sample for the point `s` found on the shape.
+    #[inline]
     fn emitted_towards(
         &self,
         ctx: &EmitterContext,

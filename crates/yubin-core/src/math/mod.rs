@@ -5,7 +5,7 @@ mod bounds;
 mod frame;
 mod transform;
 
-pub use atan::{atan2, atan2_pair};
+pub use atan::{atan2, atan2_f64, atan2_pair};
 pub use bounds::Bounds3;
 pub use frame::{coordinate_system, Frame};
 pub use transform::Transform;

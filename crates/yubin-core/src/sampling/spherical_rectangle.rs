@@ -16,7 +16,7 @@
 use super::{
     SPHERICAL_MAX_SOLID_ANGLE as MAX_SOLID_ANGLE, SPHERICAL_MIN_SOLID_ANGLE as MIN_SOLID_ANGLE,
 };
-use crate::math::atan2;
+use crate::math::atan2_f64;
 use glam::{Vec2, Vec3};
 use wide::f32x4;
 
@@ -215,7 +215,15 @@ impl Corners {
             let (la, lb, lc) = (self.len[a], self.len[b], self.len[c]);
             la * lb * lc + va.dot(vb) * lc + va.dot(vc) * lb + vb.dot(vc) * la
         };
-        2.0 * (atan2(triple, den(0, 1, 2)) + atan2(triple, den(0, 2, 3)))
+        // The two half-angles' sum in [0, π] is the argument of the
+        // product of (den, triple) pairs as complex numbers: one
+        // arctangent, not two. Their products reach length⁶, so f64.
+        let (t, d0, d1) = (
+            f64::from(triple),
+            f64::from(den(0, 1, 2)),
+            f64::from(den(0, 2, 3)),
+        );
+        2.0 * atan2_f64(t * (d0 + d1), d0 * d1 - t * t)
     }
 }
 

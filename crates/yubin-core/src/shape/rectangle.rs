@@ -107,7 +107,7 @@ impl Rectangle {
     }
 
     /// The rectangle as seen from `p`, where spherical sampling applies.
-    #[inline]
+    #[cfg(test)]
     fn seen_from(&self, p: Vec3) -> Option<SphericalRectangle> {
         let (corner, ex, ey) = self.near_corner_edges(p)?;
         SphericalRectangle::new(p, corner, ex, ey)
@@ -115,6 +115,25 @@ impl Rectangle {
 }
 
 impl Rectangle {
+    /// A point sampled uniformly in the solid angle the rectangle (its
+    /// corner and edges) subtends from `ref_p`, where that applies.
+    #[inline(never)]
+    fn sample_spherical(
+        &self,
+        ref_p: Vec3,
+        (corner, ex, ey): (Vec3, Vec3, Vec3),
+        u: Vec2,
+    ) -> Option<ShapeDirectionSample> {
+        let sr = SphericalRectangle::new(ref_p, corner, ex, ey)?;
+        let (p, uv) = sr.sample(u);
+        Some(ShapeDirectionSample {
+            p,
+            n: self.normal(),
+            pdf: 1.0 / sr.solid_angle(),
+            uv,
+        })
+    }
+
     /// [`ShapeModel::intersect`] for the eight rays of `rays` at once, each
     /// within its lane of `t_max`: the lanes that hit, their distances and
     /// object-space x and y, which are the single-ray test's bit for bit
@@ -175,22 +194,20 @@ impl ShapeModel for Rectangle {
         }
     }
 
+    // Inline, its spherical sampling out of line: the area sample's
+    // distance then reaches the light's code, which needs it too.
+    #[inline]
     fn sample_direction(
         &self,
         meshes: &[TriangleMesh],
         ref_p: Vec3,
         u: Vec2,
     ) -> ShapeDirectionSample {
-        let Some(sr) = self.seen_from(ref_p) else {
-            return ShapeDirectionSample::from_area(self.sample_position(meshes, u), ref_p);
-        };
-        let (p, uv) = sr.sample(u);
-        ShapeDirectionSample {
-            p,
-            n: self.normal(),
-            pdf: 1.0 / sr.solid_angle(),
-            uv,
-        }
+        self.near_corner_edges(ref_p)
+            .and_then(|edges| self.sample_spherical(ref_p, edges, u))
+            .unwrap_or_else(|| {
+                ShapeDirectionSample::from_area(self.sample_position(meshes, u), ref_p)
+            })
     }
 
     fn pdf_direction(&self, meshes: &[TriangleMesh], ref_p: Vec3, p: Vec3, n: Vec3) -> f32 {
