@@ -108,7 +108,8 @@ impl AreaLight {
         if s.pdf.is_nan() || s.pdf <= 0.0 || dist == 0.0 || !s.pdf.is_finite() {
             return None;
         }
-        let wi = delta / dist;
+        // One division for the three components.
+        let wi = delta * (1.0 / dist);
         // Only the front side emits.
         if s.n.dot(wi) >= 0.0 {
             return None;

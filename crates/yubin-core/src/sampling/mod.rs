@@ -10,7 +10,7 @@ mod spherical_triangle;
 
 pub use alias::AliasTable;
 pub use distribution2d::{Distribution1D, Distribution2D};
-pub use spherical_rectangle::{spherical_rectangle_pdf, SphericalRectangle};
+pub use spherical_rectangle::{spherical_rectangle_pdf, RectangleFrame, SphericalRectangle};
 pub use spherical_triangle::SphericalTriangle;
 
 /// Below this solid angle (sr) a light is far enough that sampling it by

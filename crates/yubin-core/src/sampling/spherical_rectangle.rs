@@ -50,13 +50,57 @@ pub struct SphericalRectangle {
     solid_angle: f32,
 }
 
-impl SphericalRectangle {
+/// What of a rectangle the spherical sampling reads that does not depend
+/// on the point it is seen from: its corner and edges, their lengths and
+/// unit directions. Kept by the shape, since each sample would otherwise
+/// take two square roots and two divisions more, on the divider that the
+/// sample's own dozen divisions and square roots keep busy.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RectangleFrame {
+    corner: Vec3,
+    ex: Vec3,
+    ey: Vec3,
+    /// Unit `ex` and `ey`, and their cross product.
+    x: Vec3,
+    y: Vec3,
+    z: Vec3,
+    /// The edges' lengths and their reciprocals.
+    w: f32,
+    l: f32,
+    inv_w: f32,
+    inv_l: f32,
+}
+
+impl RectangleFrame {
     /// The rectangle with corner `corner` and perpendicular edges `ex`,
-    /// `ey` as seen from `o`; `None` when its solid angle lies outside
+    /// `ey`.
+    pub fn new(corner: Vec3, ex: Vec3, ey: Vec3) -> Self {
+        let (w, l) = (ex.length(), ey.length());
+        let (inv_w, inv_l) = (1.0 / w, 1.0 / l);
+        let (x, y) = (ex * inv_w, ey * inv_l);
+        Self {
+            corner,
+            ex,
+            ey,
+            x,
+            y,
+            z: x.cross(y),
+            w,
+            l,
+            inv_w,
+            inv_l,
+        }
+    }
+}
+
+impl SphericalRectangle {
+    /// The rectangle `r` as seen from `o`; `None` when its solid angle
+    /// lies outside
     /// [`SPHERICAL_MIN_SOLID_ANGLE`](super::SPHERICAL_MIN_SOLID_ANGLE), [`SPHERICAL_MAX_SOLID_ANGLE`](super::SPHERICAL_MAX_SOLID_ANGLE) (then sample by area).
     #[inline]
-    pub fn new(o: Vec3, corner: Vec3, ex: Vec3, ey: Vec3) -> Option<Self> {
-        let f = LocalFrame::new(o, corner, ex, ey);
+    pub fn new(o: Vec3, r: &RectangleFrame) -> Option<Self> {
+        let f = LocalFrame::new(o, r);
+        let (corner, ex, ey) = (r.corner, r.ex, r.ey);
         let corners = Corners::new(&f);
         let solid_angle = corners.solid_angle();
         if !(MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE).contains(&solid_angle) {
@@ -133,8 +177,8 @@ impl SphericalRectangle {
 /// The density of [`SphericalRectangle::sample`], 1/Ω, for the same
 /// arguments as [`SphericalRectangle::new`]; `None` where that is.
 #[inline]
-pub fn spherical_rectangle_pdf(o: Vec3, corner: Vec3, ex: Vec3, ey: Vec3) -> Option<f32> {
-    let solid_angle = Corners::new(&LocalFrame::new(o, corner, ex, ey)).solid_angle();
+pub fn spherical_rectangle_pdf(o: Vec3, r: &RectangleFrame) -> Option<f32> {
+    let solid_angle = Corners::new(&LocalFrame::new(o, r)).solid_angle();
     (MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE)
         .contains(&solid_angle)
         .then(|| 1.0 / solid_angle)
@@ -154,20 +198,17 @@ struct LocalFrame {
 
 impl LocalFrame {
     #[inline]
-    fn new(o: Vec3, corner: Vec3, ex: Vec3, ey: Vec3) -> Self {
-        let (w, l) = (ex.length(), ey.length());
-        let (inv_w, inv_l) = (1.0 / w, 1.0 / l);
-        let (x, y) = (ex * inv_w, ey * inv_l);
-        let d = corner - o;
-        let (x0, y0) = (d.dot(x), d.dot(y));
+    fn new(o: Vec3, r: &RectangleFrame) -> Self {
+        let d = r.corner - o;
+        let (x0, y0) = (d.dot(r.x), d.dot(r.y));
         Self {
             x0,
-            x1: x0 + w,
+            x1: x0 + r.w,
             y0,
-            y1: y0 + l,
-            h: d.dot(x.cross(y)).abs(),
-            inv_w,
-            inv_l,
+            y1: y0 + r.l,
+            h: d.dot(r.z).abs(),
+            inv_w: r.inv_w,
+            inv_l: r.inv_l,
         }
     }
 }
@@ -287,7 +328,7 @@ mod tests {
         let corner = Vec3::new(-0.4, -0.6, 0.2);
         let ex = Vec3::new(1.2, 0.3, 0.0);
         let ey = Vec3::new(-0.3, 1.2, 0.5).reject_from(ex).normalize() * 0.8;
-        let sr = SphericalRectangle::new(o, corner, ex, ey).unwrap();
+        let sr = SphericalRectangle::new(o, &RectangleFrame::new(corner, ex, ey)).unwrap();
         let mut rng = Pcg32::new(1, 2);
         for _ in 0..1000 {
             let (p, uv) = sr.sample(rng.next_2d());
@@ -305,10 +346,10 @@ mod tests {
 
     #[test]
     fn far_and_in_plane_points_fall_back() {
-        let (corner, ex, ey) = (Vec3::ZERO, Vec3::X, Vec3::Y);
-        assert!(SphericalRectangle::new(Vec3::new(0.5, 0.5, 100.0), corner, ex, ey).is_none());
-        assert!(SphericalRectangle::new(Vec3::new(0.5, 0.5, 0.0), corner, ex, ey).is_none());
-        assert!(SphericalRectangle::new(Vec3::new(3.0, 0.5, 0.0), corner, ex, ey).is_none());
-        assert!(SphericalRectangle::new(Vec3::new(0.5, 0.5, 1.0), corner, ex, ey).is_some());
+        let frame = RectangleFrame::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+        assert!(SphericalRectangle::new(Vec3::new(0.5, 0.5, 100.0), &frame).is_none());
+        assert!(SphericalRectangle::new(Vec3::new(0.5, 0.5, 0.0), &frame).is_none());
+        assert!(SphericalRectangle::new(Vec3::new(3.0, 0.5, 0.0), &frame).is_none());
+        assert!(SphericalRectangle::new(Vec3::new(0.5, 0.5, 1.0), &frame).is_some());
     }
 }

@@ -216,11 +216,14 @@ pub(crate) const NEAR_AREA_PER_DISTANCE2: f32 = 0.5;
 pub fn area_to_solid_angle(pdf_area: f32, ref_p: Vec3, p: Vec3, n: Vec3) -> f32 {
     let d = p - ref_p;
     let dist2 = d.length_squared();
-    let cos = (n.dot(d) / dist2.sqrt()).abs();
-    if cos <= 1e-7 || dist2 == 0.0 {
+    let dist = dist2.sqrt();
+    // pdf · d² / |cos θ| with cos θ = n·d / d: one division, not two (a
+    // light sample's divisions and square roots share one divider).
+    let n_dot_d = n.dot(d).abs();
+    if n_dot_d <= 1e-7 * dist || dist2 == 0.0 {
         0.0
     } else {
-        pdf_area * dist2 / cos
+        pdf_area * dist2 * dist / n_dot_d
     }
 }
 

@@ -28,7 +28,7 @@ use super::{
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Frame, Ray, RayPacket, Transform};
 use crate::params::{ParamError, Params};
-use crate::sampling::{spherical_rectangle_pdf, SphericalRectangle};
+use crate::sampling::{spherical_rectangle_pdf, RectangleFrame, SphericalRectangle};
 use glam::{Vec2, Vec3};
 use wide::{f32x8, CmpLe};
 
@@ -57,6 +57,11 @@ struct Geometry {
     frame: Frame,
     area: f32,
     inv_area: f32,
+    /// |ex × ey|², for the test of nearness to a point.
+    area2: f32,
+    /// What spherical sampling reads, for a square-cornered rectangle
+    /// (a sheared one is sampled by area).
+    spherical: Option<RectangleFrame>,
 }
 
 impl Rectangle {
@@ -64,16 +69,21 @@ impl Rectangle {
     pub fn new(to_world: Transform, flip_normals: bool) -> Self {
         let ex = to_world.vector(Vec3::new(2.0, 0.0, 0.0));
         let ey = to_world.vector(Vec3::new(0.0, 2.0, 0.0));
+        let area2 = ex.cross(ey).length_squared();
         let area = ex.cross(ey).length();
         let normal = world_normal(&to_world, Vec3::Z, flip_normals);
+        let center = to_world.point(Vec3::ZERO);
+        let square = ex.dot(ey).powi(2) <= 1e-10 * area2;
         let geometry = Geometry {
-            center: to_world.point(Vec3::ZERO),
+            center,
             ex,
             ey,
             normal,
             frame: Frame::from_normal_and_tangent(normal, ex),
             area,
             inv_area: 1.0 / area,
+            area2,
+            spherical: square.then(|| RectangleFrame::new(center - 0.5 * (ex + ey), ex, ey)),
         };
         Self {
             to_world,
@@ -94,37 +104,33 @@ impl Rectangle {
         self.geometry.normal
     }
 
-    /// The corner at uv = (0, 0) and the edges along u and v, when `p`
-    /// is near enough for spherical sampling to pay and the rectangle is
-    /// square-cornered.
+    /// The rectangle's frame for spherical sampling, when `p` is near
+    /// enough for that to pay and the rectangle is square-cornered.
     #[inline]
-    fn near_corner_edges(&self, p: Vec3) -> Option<(Vec3, Vec3, Vec3)> {
-        let Geometry { center, ex, ey, .. } = self.geometry;
-        let area2 = ex.cross(ey).length_squared();
-        let near = area2 >= (NEAR_AREA_PER_DISTANCE2 * center.distance_squared(p)).powi(2);
-        let square = ex.dot(ey).powi(2) <= 1e-10 * area2;
-        (near && square).then(|| (center - 0.5 * (ex + ey), ex, ey))
+    fn near_frame(&self, p: Vec3) -> Option<&RectangleFrame> {
+        let g = &self.geometry;
+        let near = g.area2 >= (NEAR_AREA_PER_DISTANCE2 * g.center.distance_squared(p)).powi(2);
+        g.spherical.as_ref().filter(|_| near)
     }
 
     /// The rectangle as seen from `p`, where spherical sampling applies.
     #[cfg(test)]
     fn seen_from(&self, p: Vec3) -> Option<SphericalRectangle> {
-        let (corner, ex, ey) = self.near_corner_edges(p)?;
-        SphericalRectangle::new(p, corner, ex, ey)
+        SphericalRectangle::new(p, self.near_frame(p)?)
     }
 }
 
 impl Rectangle {
     /// A point sampled uniformly in the solid angle the rectangle (its
-    /// corner and edges) subtends from `ref_p`, where that applies.
+    /// frame `r`) subtends from `ref_p`, where that applies.
     #[inline(never)]
     fn sample_spherical(
         &self,
         ref_p: Vec3,
-        (corner, ex, ey): (Vec3, Vec3, Vec3),
+        r: &RectangleFrame,
         u: Vec2,
     ) -> Option<ShapeDirectionSample> {
-        let sr = SphericalRectangle::new(ref_p, corner, ex, ey)?;
+        let sr = SphericalRectangle::new(ref_p, r)?;
         let (p, uv) = sr.sample(u);
         Some(ShapeDirectionSample {
             p,
@@ -203,16 +209,16 @@ impl ShapeModel for Rectangle {
         ref_p: Vec3,
         u: Vec2,
     ) -> ShapeDirectionSample {
-        self.near_corner_edges(ref_p)
-            .and_then(|edges| self.sample_spherical(ref_p, edges, u))
+        self.near_frame(ref_p)
+            .and_then(|r| self.sample_spherical(ref_p, r, u))
             .unwrap_or_else(|| {
                 ShapeDirectionSample::from_area(self.sample_position(meshes, u), ref_p)
             })
     }
 
     fn pdf_direction(&self, meshes: &[TriangleMesh], ref_p: Vec3, p: Vec3, n: Vec3) -> f32 {
-        self.near_corner_edges(ref_p)
-            .and_then(|(corner, ex, ey)| spherical_rectangle_pdf(ref_p, corner, ex, ey))
+        self.near_frame(ref_p)
+            .and_then(|r| spherical_rectangle_pdf(ref_p, r))
             .unwrap_or_else(|| area_to_solid_angle(1.0 / self.surface_area(meshes), ref_p, p, n))
     }
 }
