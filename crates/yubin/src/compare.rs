@@ -74,15 +74,62 @@ pub fn run(args: CompareArgs) -> Result<()> {
     let a = read_image(&args.image, ColorHandling::Srgb)?;
     let b = read_image(&args.reference, ColorHandling::Srgb)?;
     let m = metrics(&a, &b)?;
-    println!("relMSE {:.6}", m.rel_mse);
-    println!("RMSE   {:.6}", m.rmse);
-    println!("bias   {:+.4}% (mean luminance)", m.luminance_bias * 100.0);
-    Ok(())
+    report(&mut std::io::stdout().lock(), &m)
+}
+
+/// Prints `m` to `out`; a reader that stopped early (`| head -1`) is not
+/// an error.
+fn report(out: &mut impl std::io::Write, m: &Metrics) -> Result<()> {
+    match print_metrics(out, m) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        result => Ok(result?),
+    }
+}
+
+fn print_metrics(out: &mut impl std::io::Write, m: &Metrics) -> std::io::Result<()> {
+    writeln!(out, "relMSE {:.6}", m.rel_mse)?;
+    writeln!(out, "RMSE   {:.6}", m.rmse)?;
+    writeln!(
+        out,
+        "bias   {:+.4}% (mean luminance)",
+        m.luminance_bias * 100.0
+    )?;
+    out.flush()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A writer whose reader is gone (or that fails otherwise).
+    struct Failing(std::io::ErrorKind);
+
+    impl std::io::Write for Failing {
+        fn write(&mut self, _: &[u8]) -> std::io::Result<usize> {
+            Err(self.0.into())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// `yubin compare a b | head -1` ends quietly; other write errors
+    /// are reported.
+    #[test]
+    fn a_closed_pipe_is_not_an_error() {
+        let m = Metrics {
+            rel_mse: 0.5,
+            rmse: 0.1,
+            luminance_bias: 0.0,
+        };
+        assert!(report(&mut Failing(std::io::ErrorKind::BrokenPipe), &m).is_ok());
+        assert!(report(&mut Failing(std::io::ErrorKind::StorageFull), &m).is_err());
+        let mut text = Vec::new();
+        report(&mut text, &m).unwrap();
+        assert!(String::from_utf8(text)
+            .unwrap()
+            .starts_with("relMSE 0.500000\n"));
+    }
 
     #[test]
     fn metrics_of_known_images() {
