@@ -113,10 +113,17 @@ impl SphericalRectangle {
         // there, as unnormalized (cosine, sine) pairs; their sum's.
         let (c2, s2) = (x0 * y1, h * corners.len[3]);
         let (c3, s3) = (-x0 * y0, h * corners.len[0]);
-        let norm = 1.0 / ((c2 * c2 + s2 * s2) * (c3 * c3 + s3 * s3)).sqrt();
-        // b0 and b1 in one pair of lanes (see `sample`).
-        let y = f32x4::new([y0, y1, 0.0, 0.0]);
-        let b = (f32x4::new([-y0, y1, 0.0, 0.0]) / (f32x4::splat(h2) + y * y).sqrt()).to_array();
+        // b0, b1 and the pair's normalization in three lanes: one square
+        // root and one division for the three (see `sample`).
+        let [b0, b1, norm, _] = (f32x4::new([-y0, y1, 1.0, 1.0])
+            / f32x4::new([
+                h2 + y0 * y0,
+                h2 + y1 * y1,
+                (c2 * c2 + s2 * s2) * (c3 * c3 + s3 * s3),
+                1.0,
+            ])
+            .sqrt())
+        .to_array();
         Some(Self {
             corner,
             ex,
@@ -128,8 +135,8 @@ impl SphericalRectangle {
             y0,
             y1,
             h,
-            b0: b[0],
-            b1: b[1],
+            b0,
+            b1,
             cos_g: (c2 * c3 - s2 * s3) * norm,
             sin_g: (s2 * c3 + c2 * s3) * norm,
             solid_angle,
