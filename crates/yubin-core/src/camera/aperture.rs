@@ -76,7 +76,7 @@ impl Aperture {
     fn sample_polygon(&self, u: Vec2) -> Vec2 {
         let n = self.blades as f32;
         let scaled = u.x * n;
-        let k = scaled.floor().min(n - 1.0);
+        let k = crate::math::floor(scaled).min(n - 1.0);
         let ux = scaled - k;
         let corner = |i: f32| {
             let a = self.rotation + 2.0 * PI * i / n;

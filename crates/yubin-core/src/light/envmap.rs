@@ -244,7 +244,7 @@ impl EnvMapLight {
         let uv = latlong::uv_of(local);
         let radiance = Self::lookup(img, uv) * self.scale;
         let x = uv.x - Self::shift(img);
-        let x = x - x.floor();
+        let x = x - crate::math::floor(x);
         let pdf = latlong::solid_angle_pdf(dist.pdf(Vec2::new(x, uv.y)), local);
         (radiance, pdf)
     }
@@ -270,7 +270,7 @@ impl Bilinear {
     fn at(img: &TexImage, uv: Vec2) -> Self {
         let (w, h) = (img.width, img.height);
         let px = uv.x * w as f32 - 0.5;
-        let fx0 = px.floor();
+        let fx0 = crate::math::floor(px);
         let x0 = (fx0 as i64).rem_euclid(w as i64) as u32;
         let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
         let py = uv.y * (h - 1) as f32;

@@ -592,7 +592,7 @@ impl PreethamLight {
         let sky_prob = 1.0 - self.sun_prob;
         if sky_prob > 0.0 && d.y > 0.0 {
             let uv = latlong::uv_of(d);
-            let x = uv.x - uv.x.floor();
+            let x = uv.x - crate::math::floor(uv.x);
             pdf += sky_prob * latlong::solid_angle_pdf(dist.pdf(Vec2::new(x, uv.y)), d);
         }
         pdf

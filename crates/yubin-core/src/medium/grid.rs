@@ -161,11 +161,11 @@ impl Grid {
         // Voxel centres sit at (i + 1/2) / res of the box.
         let q = (p - b.min) / (b.max - b.min) * res;
         if nearest {
-            let v = q.floor();
+            let v = crate::math::floor3(q);
             return self.wrapped_voxel(v.x as i64, v.y as i64, v.z as i64, wrap);
         }
         let q = q - Vec3::splat(0.5);
-        let base = q.floor();
+        let base = crate::math::floor3(q);
         let f = q - base;
         let (x, y, z) = (base.x as i64, base.y as i64, base.z as i64);
         let lerp = |a: Rgb, b: Rgb, t: f32| a + (b - a) * t;

@@ -30,8 +30,8 @@ impl MajorantGrid {
             let (vr, mr) = (grid.res[axis] as f32, res[axis] as f32);
             let lo = c as f32 * vr / mr - 0.5;
             let hi = (c + 1) as f32 * vr / mr - 0.5;
-            let first = (lo.floor() as i64).clamp(0, vr as i64 - 1);
-            let last = (hi.floor() as i64 + 1).clamp(0, vr as i64 - 1);
+            let first = (crate::math::floor(lo) as i64).clamp(0, vr as i64 - 1);
+            let last = (crate::math::floor(hi) as i64 + 1).clamp(0, vr as i64 - 1);
             first..=last
         };
         let mut max = Vec::with_capacity((res[0] * res[1] * res[2]) as usize);
@@ -100,7 +100,7 @@ impl MajorantGrid {
         let mut step = [0i64; 3];
         let mut delta = [0f32; 3];
         for a in 0..3 {
-            let c = (p[a].floor() as i64).clamp(0, self.res[a] as i64 - 1);
+            let c = (crate::math::floor(p[a]) as i64).clamp(0, self.res[a] as i64 - 1);
             cell[a] = c as usize;
             if d[a] > 0.0 {
                 step[a] = 1;

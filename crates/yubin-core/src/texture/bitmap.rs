@@ -128,7 +128,7 @@ impl Bitmap {
         let size = Vec2::new(img.width as f32, img.height as f32);
         match self.filter {
             FilterType::Nearest => {
-                let p = (uv * size).floor();
+                let p = crate::math::floor2(uv * size);
                 let x = self.wrap_index(p.x as i64, img.width);
                 let y = self.wrap_index(p.y as i64, img.height);
                 let t = img.texel(x, y, decode);
@@ -136,7 +136,7 @@ impl Bitmap {
             }
             FilterType::Bilinear => {
                 let p = uv * size - 0.5;
-                let p0 = p.floor();
+                let p0 = crate::math::floor2(p);
                 let f = p - p0;
                 let (x0, y0) = (p0.x as i64, p0.y as i64);
                 let xs = [x0, x0 + 1].map(|x| self.wrap_index(x, img.width));

@@ -59,7 +59,7 @@ impl Checkerboard {
     #[inline]
     fn pick(&self, si: &SurfaceInteraction) -> &Tex {
         let uv = self.to_uv.transform_point2(si.uv);
-        let f = uv - uv.floor();
+        let f = uv - crate::math::floor2(uv);
         if (f.x > 0.5) == (f.y > 0.5) {
             &self.color0
         } else {

@@ -87,7 +87,7 @@ impl Grid {
     #[inline]
     pub fn on_line(&self, si: &SurfaceInteraction) -> bool {
         let uv = self.to_uv.transform_point2(si.uv);
-        let mut d = uv - uv.floor();
+        let mut d = uv - crate::math::floor2(uv);
         for i in 0..2 {
             if d[i] > 0.5 {
                 d[i] -= 1.0;

@@ -83,7 +83,7 @@ pub fn perlin(p: Vec3) -> (f32, Vec3) {
     if !p.is_finite() {
         return (0.0, Vec3::ZERO);
     }
-    let cell = p.floor();
+    let cell = crate::math::floor3(p);
     let f = p - cell;
     let (ix, iy, iz) = (cell.x as i32, cell.y as i32, cell.z as i32);
     let (s, ds) = fade(f);
