@@ -29,7 +29,9 @@
 //! `-D name=value` sets a scene parameter in both renderers (and in the
 //! reference, cached per setting): `-D max_depth=2` measures paths of one
 //! bounce, which with the full depth splits the cost between the first
-//! hit and the later bounces.
+//! hit and the later bounces. Only the scenes that declare the parameter
+//! take it (the Cornell box declares `max_depth`, the others fix their
+//! depth): both renderers refuse a parameter a scene does not have.
 
 use crate::cornell::{rel_mse_rgb, repo_root};
 use anyhow::{bail, Context, Result};

@@ -50,7 +50,10 @@
 //!   are fine.
 //! - `$name` is replaced in every attribute value, also inside longer
 //!   strings. Parameters come from the caller's defines first, then from
-//!   `<default>` in document order (a default never overrides).
+//!   `<default>` in document order (a default never overrides). A define
+//!   that the scene neither declares with a `<default>` nor reads as
+//!   `$name` is an error, as in Mitsuba 3 ("unused parameters"): a
+//!   misspelt `-D` would otherwise change nothing without a word.
 //! - `<path value=>` adds a search directory, relative to the file that
 //!   declares it. File names (includes, and later meshes and images via
 //!   [`SceneDesc::resolve_file`]) are looked up in the main scene file's
@@ -128,6 +131,20 @@ pub fn parse_str(
     src.check_attributes(root, &["version"])?;
     let mut scene = Object::new(Category::Scene, "scene", src.loc(root));
     parser.parse_body(&src, root, &mut scene)?;
+    let unused: Vec<&str> = defines
+        .iter()
+        .map(|(name, _)| name.as_str())
+        .filter(|name| !parser.used.borrow().contains(*name))
+        .collect();
+    if !unused.is_empty() {
+        return Err(SceneError::file(
+            path,
+            format!(
+                "the scene has no parameter {} (no <default name=...> declares it and no $name reads it)",
+                unused.join(", ")
+            ),
+        ));
+    }
     let root = parser.resolve_forward(Rc::new(scene))?;
     Ok(SceneDesc {
         root,
@@ -141,6 +158,8 @@ pub fn parse_str(
 struct Parser {
     /// `$name` values: the caller's defines, then `<default>`s.
     params: HashMap<String, String>,
+    /// Parameter names a `<default>` declares or a `$name` reads.
+    used: std::cell::RefCell<std::collections::HashSet<String>>,
     /// Objects declared with an `id`, for `<ref>`.
     ids: HashMap<String, Rc<Object>>,
     /// Stand-ins for `<ref>`s to ids not declared yet (Mitsuba resolves
@@ -226,6 +245,7 @@ impl Parser {
     fn new(path: &Path, defines: &[(String, String)]) -> Self {
         Self {
             params: defines.iter().cloned().collect(),
+            used: Default::default(),
             ids: HashMap::new(),
             forward: Vec::new(),
             search_paths: vec![directory_of(path)],
@@ -293,6 +313,7 @@ impl Parser {
         src.check_attributes(el, &["name", "value"])?;
         let name = src.raw_attribute(el, "name")?;
         let value = self.required(src, el, "value")?.value;
+        self.used.borrow_mut().insert(name.clone());
         self.params.entry(name).or_insert(value);
         Ok(())
     }
@@ -772,6 +793,7 @@ impl Parser {
                         ),
                     )
                 })?;
+                self.used.borrow_mut().insert(name.to_string());
                 out.push_str(value);
             }
             rest = &after[len..];
@@ -1154,6 +1176,36 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         dir
+    }
+
+    /// A define the scene neither declares nor reads is refused, named;
+    /// one it reads as `$name` without a default, or declares without
+    /// reading, is taken.
+    #[test]
+    fn unused_defines_are_an_error() {
+        let text = scene(
+            r#"<default name="unread" value="1"/>
+               <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>"#,
+        );
+        let define = |pairs: &[(&str, &str)]| -> Vec<(String, String)> {
+            pairs
+                .iter()
+                .map(|(n, v)| (n.to_string(), v.to_string()))
+                .collect()
+        };
+        let path = Path::new("scene.xml");
+        assert!(parse_str(&text, path, &define(&[("spp", "4"), ("unread", "2")])).is_ok());
+        let err = parse_str(
+            &text,
+            path,
+            &define(&[("spp", "4"), ("sp", "8"), ("max_depth", "2")]),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains("scene.xml") && err.contains("no parameter sp, max_depth"),
+            "{err}"
+        );
     }
 
     #[test]
