@@ -324,11 +324,12 @@ impl Integrator for AovIntegrator {
         self.nested_channels + self.aov_channels
     }
 
-    /// When every nested integrator may (they share the scene's lights).
+    /// Its uv layer reads the hits' uv.
     fn reads_uv(&self) -> bool {
         true
     }
 
+    /// When every nested integrator may (they share the scene's lights).
     fn mis_compensation(&self) -> bool {
         !self.nested.is_empty() && self.nested.iter().all(|(_, i)| i.mis_compensation())
     }

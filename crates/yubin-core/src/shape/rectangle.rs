@@ -57,8 +57,6 @@ struct Geometry {
     frame: Frame,
     area: f32,
     inv_area: f32,
-    /// |ex × ey|², for the test of nearness to a point.
-    area2: f32,
     /// What spherical sampling reads, for a square-cornered rectangle
     /// (a sheared one is sampled by area).
     spherical: Option<RectangleFrame>,
@@ -70,7 +68,7 @@ impl Rectangle {
         let ex = to_world.vector(Vec3::new(2.0, 0.0, 0.0));
         let ey = to_world.vector(Vec3::new(0.0, 2.0, 0.0));
         let area2 = ex.cross(ey).length_squared();
-        let area = ex.cross(ey).length();
+        let area = area2.sqrt();
         let normal = world_normal(&to_world, Vec3::Z, flip_normals);
         let center = to_world.point(Vec3::ZERO);
         let square = ex.dot(ey).powi(2) <= 1e-10 * area2;
@@ -82,7 +80,6 @@ impl Rectangle {
             frame: Frame::from_normal_and_tangent(normal, ex),
             area,
             inv_area: 1.0 / area,
-            area2,
             spherical: square.then(|| RectangleFrame::new(center - 0.5 * (ex + ey), ex, ey)),
         };
         Self {
@@ -109,7 +106,7 @@ impl Rectangle {
     #[inline]
     fn near_frame(&self, p: Vec3) -> Option<&RectangleFrame> {
         let g = &self.geometry;
-        let near = g.area2 >= (NEAR_AREA_PER_DISTANCE2 * g.center.distance_squared(p)).powi(2);
+        let near = g.area >= NEAR_AREA_PER_DISTANCE2 * g.center.distance_squared(p);
         g.spherical.as_ref().filter(|_| near)
     }
 
