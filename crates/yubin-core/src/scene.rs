@@ -12,6 +12,7 @@ use crate::accel::{Bvh, Node, PrimCost, RayLanes};
 use crate::bsdf::{Bsdf, BsdfModel, Diffuse};
 use crate::camera::{Camera, FovAxis, Perspective};
 use crate::film::Film;
+use crate::integrator::wide::{DiffuseSides, RectangleLight};
 use crate::interaction::SurfaceInteraction;
 use crate::light::{
     AreaLight, Emitter, EmitterContext, EmitterOptions, LightChoice, LightSampler, LightSelection,
@@ -357,6 +358,12 @@ pub struct Scene {
     /// [`BsdfModel::flags`] of each BSDF of [`Materials::bsdfs`], asked
     /// at every bounce: taken once (nested BSDFs ask theirs recursively).
     bsdf_flags: Vec<crate::bsdf::BsdfFlags>,
+    /// Per BSDF, its reflectances when it is a constant `diffuse` (alone
+    /// or in `twosided`), which the path tracer shades eight at a time.
+    diffuse_sides: Vec<Option<DiffuseSides>>,
+    /// Per emitter, the rectangle light it is, if it is one of constant
+    /// radiance, which the path tracer samples eight at a time.
+    rectangle_lights: Vec<Option<RectangleLight>>,
     /// Some shape's BSDF lets light through (`null`, `mask`): shadow rays
     /// may have to look past their first hit.
     has_pass_through: bool,
@@ -795,6 +802,20 @@ impl Scene {
     #[inline]
     pub fn bsdf_flags_of(&self, shape: u32) -> crate::bsdf::BsdfFlags {
         self.bsdf_flags[self.shape_info[shape as usize].bsdf as usize]
+    }
+
+    /// The reflectances of a shape's BSDF, when it is a `diffuse` of
+    /// constant reflectance (alone or in `twosided`).
+    #[inline]
+    pub(crate) fn diffuse_sides_of(&self, shape: u32) -> Option<DiffuseSides> {
+        self.diffuse_sides[self.shape_info[shape as usize].bsdf as usize]
+    }
+
+    /// Emitter `emitter`, when it is an area light of constant radiance on
+    /// a rectangle.
+    #[inline]
+    pub(crate) fn rectangle_light(&self, emitter: u32) -> Option<&RectangleLight> {
+        self.rectangle_lights[emitter as usize].as_ref()
     }
 
     /// The emitter of a shape, if it is an area light.
@@ -1485,6 +1506,12 @@ impl SceneBuilder {
         let bsdf_flags: Vec<_> = (self.materials.bsdfs.iter())
             .map(|b| b.flags(&self.materials))
             .collect();
+        let diffuse_sides = (self.materials.bsdfs.iter())
+            .map(|b| DiffuseSides::of(&self.materials, b))
+            .collect();
+        let rectangle_lights = (self.emitters.iter().zip(&self.emitter_options))
+            .map(|(e, o)| RectangleLight::of(e, o, &self.shapes))
+            .collect();
         let has_pass_through = self
             .shape_info
             .iter()
@@ -1535,6 +1562,8 @@ impl SceneBuilder {
             instances: self.instances,
             placed_emitters,
             bsdf_flags,
+            diffuse_sides,
+            rectangle_lights,
         })
     }
 }

@@ -15,6 +15,7 @@ mod moment;
 mod path;
 mod ptracer;
 mod volpath;
+pub(crate) mod wide;
 
 pub use ao::AoIntegrator;
 pub use aov::{parse_aovs, AovIntegrator, AovKind};
@@ -227,9 +228,14 @@ impl RayOrigin {
 
     /// A ray BSDF-sampled at `si` (density `bsdf_pdf`, `None` for delta).
     pub fn surface(si: &SurfaceInteraction, bsdf_pdf: Option<f32>) -> Self {
+        Self::surface_at(si.p, si.n, bsdf_pdf)
+    }
+
+    /// A ray BSDF-sampled at the surface point `p` (geometric normal `n`).
+    pub fn surface_at(p: Vec3, n: Vec3, bsdf_pdf: Option<f32>) -> Self {
         Self {
-            p: si.p,
-            n: si.n,
+            p,
+            n,
             bsdf_pdf,
             camera: false,
         }
@@ -338,6 +344,39 @@ pub(crate) fn surface_emission_with(
     weigh(le, light_pdf)
 }
 
+/// The numbers one light sample draws, in the order it draws them: which
+/// light, and where on it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LightDraw {
+    /// Chooses the emitter.
+    pub u_pick: f32,
+    /// Chooses the point on it.
+    pub u: glam::Vec2,
+}
+
+impl LightDraw {
+    /// Draws the light sample's numbers from `sampler`.
+    #[inline]
+    pub fn draw(sampler: &mut SampleStream) -> Self {
+        let u_pick = sampler.next_1d();
+        Self {
+            u_pick,
+            u: sampler.next_2d(),
+        }
+    }
+}
+
+/// A light sample and how it was chosen.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PickedLightSample {
+    /// The sample of the chosen emitter.
+    pub ls: crate::light::EmitterSample,
+    /// The probability of choosing that emitter (or triangle).
+    pub pick_pdf: f32,
+    /// The chosen emitter.
+    pub emitter: u32,
+}
+
 /// One light sample at `si` with MIS against the BSDF: the contribution
 /// f · Li · T · w / pdf (before path throughput), with `light_count_ratio`
 /// scaling the light density in the heuristic (sample-count ratios) and T
@@ -352,20 +391,46 @@ pub(crate) fn sample_light(
     light_count_ratio: f32,
     max_crossings: u32,
 ) -> Rgb {
+    let draw = LightDraw::draw(sampler);
+    let Some((light, pick_pdf)) = scene.pick_light(draw.u_pick, si.p, si.n) else {
+        return Rgb::ZERO;
+    };
+    let Some(ls) = sample_chosen_light(scene, light, si.p, draw.u) else {
+        return Rgb::ZERO;
+    };
+    let picked = PickedLightSample {
+        ls,
+        pick_pdf,
+        emitter: light.emitter,
+    };
+    light_sample_contribution(
+        scene,
+        si,
+        bsdf,
+        wo_local,
+        &picked,
+        light_count_ratio,
+        max_crossings,
+    )
+}
+
+/// [`sample_light`]'s contribution for the light sample `picked`.
+pub(crate) fn light_sample_contribution(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    bsdf: &crate::bsdf::Bsdf,
+    wo_local: Vec3,
+    picked: &PickedLightSample,
+    light_count_ratio: f32,
+    max_crossings: u32,
+) -> Rgb {
     use crate::bsdf::{BsdfContext, BsdfModel};
-    let u_pick = sampler.next_1d();
-    let u = sampler.next_2d();
-    let Some((light, pick_pdf)) = scene.pick_light(u_pick, si.p, si.n) else {
-        return Rgb::ZERO;
-    };
-    let Some(ls) = sample_chosen_light(scene, light, si.p, u) else {
-        return Rgb::ZERO;
-    };
+    let ls = &picked.ls;
     let bsdf_ctx = BsdfContext::default();
     let wi_local = si.to_local(ls.wi);
     // Lights hidden from indirect rays cannot be found by BSDF sampling:
     // light sampling is then their only strategy, and needs no BSDF density.
-    let mis = !ls.is_delta && scene.emitter_options[light.emitter as usize].visible_indirect;
+    let mis = !ls.is_delta && scene.emitter_options[picked.emitter as usize].visible_indirect;
     let (f, bsdf_pdf) = if mis {
         bsdf.eval_pdf(&scene.materials, &bsdf_ctx, si, wo_local, wi_local)
     } else {
@@ -377,22 +442,38 @@ pub(crate) fn sample_light(
     if f == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let shadow = if ls.dist.is_finite() {
-        si.shadow_ray_to(si.p + ls.wi * ls.dist)
-    } else {
-        si.spawn_ray(ls.wi)
-    };
-    let tr = scene.transmittance(&shadow, max_crossings);
+    let tr = transmittance_towards(scene, si.p, si.n, ls.wi, ls.dist, max_crossings);
     if tr <= 0.0 {
         return Rgb::ZERO;
     }
-    let light_pdf = ls.pdf * pick_pdf;
+    let light_pdf = ls.pdf * picked.pick_pdf;
     let w = if mis {
         power_heuristic(light_pdf * light_count_ratio, bsdf_pdf)
     } else {
         1.0
     };
     f * ls.radiance * (tr * w / light_pdf)
+}
+
+/// The transmittance of the shadow ray from the surface point `p`
+/// (geometric normal `n`) towards a light sample `dist` away along `wi`
+/// (infinitely far: a light at infinity), through at most
+/// `max_crossings` pass-through surfaces.
+#[inline]
+pub(crate) fn transmittance_towards(
+    scene: &Scene,
+    p: Vec3,
+    n: Vec3,
+    wi: Vec3,
+    dist: f32,
+    max_crossings: u32,
+) -> f32 {
+    let shadow = if dist.is_finite() {
+        crate::math::shadow_ray_to(p, n, p + wi * dist)
+    } else {
+        crate::math::spawn_ray(p, n, wi)
+    };
+    scene.transmittance(&shadow, max_crossings)
 }
 
 /// Samples the emitter (or the emitting triangle) `light` picked by the

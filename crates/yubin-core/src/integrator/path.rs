@@ -39,10 +39,16 @@
 //! `mis_compensation` to false for such a scene.
 
 use super::max_depth_param;
-use super::{environment_radiance, sample_light, surface_emission, Integrator, RayOrigin};
+use super::wide::{self, DiffuseBatch, DiffuseShading, DiffuseSides, DiffuseVertex};
+use super::{
+    environment_radiance, light_sample_contribution, sample_chosen_light, sample_light,
+    surface_emission, transmittance_towards, Integrator, LightDraw, PickedLightSample, RayOrigin,
+};
 use crate::accel::PACKET_RAYS;
-use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel};
+use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use crate::interaction::SurfaceInteraction;
 use crate::light::LightSelection;
+use crate::math::spawn_ray;
 use crate::math::Ray;
 use crate::params::{ParamError, Params};
 use crate::sampler::SampleStream;
@@ -131,18 +137,62 @@ impl Integrator for PathIntegrator {
         for lane in 0..PACKET_RAYS {
             lanes.refill(lane, rays, out);
         }
+        let mut batch = DiffuseBatch::default();
+        // Per batch entry: its lane, point, geometric normal, reflectance.
+        let mut queued = [(0usize, Vec3::ZERO, Vec3::ZERO, Rgb::ZERO); wide::LANES];
+        let mut shading = [DiffuseShading::default(); wide::LANES];
         while lanes.alive != 0 {
             let next_rays = lanes.paths.each_ref().map(|p| p.ray);
             let hits = scene.closest_packet(&next_rays, lanes.alive);
+            batch.clear();
             for (lane, &hit) in hits.iter().enumerate() {
                 if lanes.alive >> lane & 1 == 0 {
                     continue;
                 }
                 let sample = lanes.sample[lane];
                 let path = &mut lanes.paths[lane];
-                if !self.bounce(scene, path, hit, &mut samplers[sample]) {
-                    out[3 * sample..3 * sample + 3].copy_from_slice(&path.l.to_array());
-                    lanes.refill(lane, rays, out);
+                let sampler = &mut samplers[sample];
+                let Some(hit) = hit else {
+                    self.escape(scene, path);
+                    lanes.finish(lane, rays, out);
+                    continue;
+                };
+                let si = scene.interaction_at(&path.ray, hit);
+                let goes_on = self.land(scene, path, &si)
+                    && match scene.diffuse_sides_of(si.shape) {
+                        Some(sides) => {
+                            let i = batch.len();
+                            let queued_now =
+                                self.queue_diffuse(scene, path, &si, sides, sampler, &mut batch);
+                            if batch.len() > i {
+                                queued[i] = (lane, si.p, si.n, batch.reflectance(i));
+                            }
+                            queued_now
+                        }
+                        None => self.scatter(scene, path, &si, sampler),
+                    };
+                if !goes_on {
+                    lanes.finish(lane, rays, out);
+                }
+            }
+            if batch.len() == 0 {
+                continue;
+            }
+            batch.shade(&mut shading);
+            for (&(lane, p, n, reflectance), shading) in
+                queued.iter().zip(&shading).take(batch.len())
+            {
+                let sample = lanes.sample[lane];
+                let path = &mut lanes.paths[lane];
+                if !self.finish_diffuse(
+                    scene,
+                    path,
+                    (p, n),
+                    reflectance,
+                    shading,
+                    &mut samplers[sample],
+                ) {
+                    lanes.finish(lane, rays, out);
                 }
             }
         }
@@ -161,6 +211,14 @@ struct Lanes {
 }
 
 impl Lanes {
+    /// Writes the radiance of the path in `lane`, which has ended, and
+    /// starts the next one there.
+    fn finish(&mut self, lane: usize, rays: &[Option<Ray>], out: &mut [f32]) {
+        let sample = self.sample[lane];
+        out[3 * sample..3 * sample + 3].copy_from_slice(&self.paths[lane].l.to_array());
+        self.refill(lane, rays, out);
+    }
+
     /// Starts the next camera ray's path in `lane`, or leaves the lane
     /// empty when none is left; a missing ray (the lens stopped it) is
     /// black.
@@ -225,47 +283,91 @@ impl PathIntegrator {
         hit: Option<HitRecord>,
         sampler: &mut SampleStream,
     ) -> bool {
-        let ray = &path.ray;
-        let depth = path.depth;
         let Some(hit) = hit else {
-            if !(depth == 0 && self.hide_emitters) {
-                path.l += path.beta * environment_radiance(scene, &path.origin, ray.d.normalize());
-            }
+            self.escape(scene, path);
             return false;
         };
-        let si = scene.interaction_at(ray, hit);
+        let si = scene.interaction_at(&path.ray, hit);
+        self.land(scene, path, &si) && self.scatter(scene, path, &si, sampler)
+    }
+
+    /// The emission from infinity that the path's ray finds when it
+    /// escapes the scene, which ends the path.
+    fn escape(&self, scene: &Scene, path: &mut Path) {
+        if !(path.depth == 0 && self.hide_emitters) {
+            let d = path.ray.d.normalize();
+            path.l += path.beta * environment_radiance(scene, &path.origin, d);
+        }
+    }
+
+    /// The emission of the surface `si` that the path's ray meets; false
+    /// when the path may not go on from it (its longest length).
+    #[inline]
+    fn land(&self, scene: &Scene, path: &mut Path, si: &SurfaceInteraction) -> bool {
+        let depth = path.depth;
         if !(depth == 0 && self.hide_emitters) {
-            path.l += path.beta * surface_emission(scene, &si, &path.origin);
+            path.l += path.beta * surface_emission(scene, si, &path.origin);
         }
-        if self.max_depth >= 0 && depth + 1 >= self.max_depth as u32 {
-            return false;
+        !(self.max_depth >= 0 && depth + 1 >= self.max_depth as u32)
+    }
+
+    /// How many pass-through surfaces a light sample's shadow ray from a
+    /// vertex at `depth` may cross: as many as the BSDF sample's path
+    /// could (each crossing counts as a bounce, as in Mitsuba), leaving
+    /// room for the segment that reaches the light.
+    #[inline]
+    fn crossings(&self, depth: u32) -> u32 {
+        match self.max_depth {
+            d if d < 0 => u32::MAX,
+            d => (d as u32).saturating_sub(depth + 2),
         }
+    }
+
+    /// Next-event estimation and the BSDF sample at `si`, then
+    /// [`PathIntegrator::follow`]. False when the path ends.
+    fn scatter(
+        &self,
+        scene: &Scene,
+        path: &mut Path,
+        si: &SurfaceInteraction,
+        sampler: &mut SampleStream,
+    ) -> bool {
         let bsdf = scene.bsdf_of(si.shape);
         let wo = si.to_local(si.wo);
         if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) {
-            // The light sample's path may cross as many pass-through
-            // surfaces as the BSDF sample's path could: each crossing
-            // counts as a bounce (as in Mitsuba), and the last one must
-            // still leave room for the segment that reaches the light.
-            let crossings = match self.max_depth {
-                d if d < 0 => u32::MAX,
-                d => (d as u32).saturating_sub(depth + 2),
-            };
-            path.l += path.beta * sample_light(scene, &si, bsdf, wo, sampler, 1.0, crossings);
+            let crossings = self.crossings(path.depth);
+            path.l += path.beta * sample_light(scene, si, bsdf, wo, sampler, 1.0, crossings);
         }
         let u1 = sampler.next_1d();
         let u2 = sampler.next_2d();
         let ctx = BsdfContext::default();
-        let Some(bs) = bsdf.sample(&scene.materials, &ctx, &si, wo, u1, u2) else {
+        let Some(bs) = bsdf.sample(&scene.materials, &ctx, si, wo, u1, u2) else {
             return false;
         };
+        let wi = si.to_world(bs.wi);
+        self.follow(path, si.p, si.n, &bs, wi, sampler)
+    }
+
+    /// The path goes on from the surface point `p` (geometric normal `n`)
+    /// along the BSDF sample `bs`, whose direction is `wi` in world
+    /// space; Russian roulette. False when the path ends.
+    #[inline]
+    fn follow(
+        &self,
+        path: &mut Path,
+        p: Vec3,
+        n: Vec3,
+        bs: &BsdfSample,
+        wi: Vec3,
+        sampler: &mut SampleStream,
+    ) -> bool {
         path.beta *= bs.weight;
         path.eta2 *= bs.eta * bs.eta;
         if bs.sampled != BsdfFlags::NULL {
             let pdf = (!bs.sampled.intersects(BsdfFlags::DELTA)).then_some(bs.pdf);
-            path.origin = RayOrigin::surface(&si, pdf);
+            path.origin = RayOrigin::surface_at(p, n, pdf);
         }
-        path.ray = si.spawn_ray(si.to_world(bs.wi));
+        path.ray = spawn_ray(p, n, wi);
         path.depth += 1;
         if path.depth >= self.rr_depth {
             let q = (path.beta.max_element() * path.eta2).min(0.95);
@@ -279,19 +381,108 @@ impl PathIntegrator {
         }
         true
     }
+
+    /// [`PathIntegrator::scatter`] for a vertex whose BSDF is `sides`:
+    /// draws its numbers, and queues in `batch` what the wide shading
+    /// computes (the BSDF sample, and the light sample when the chosen
+    /// light is a rectangle sampled by area; other light samples are
+    /// taken here). False when the path ends here.
+    #[inline]
+    fn queue_diffuse(
+        &self,
+        scene: &Scene,
+        path: &mut Path,
+        si: &SurfaceInteraction,
+        sides: DiffuseSides,
+        sampler: &mut SampleStream,
+        batch: &mut DiffuseBatch,
+    ) -> bool {
+        let wo = si.to_local(si.wo);
+        let draw = LightDraw::draw(sampler);
+        let _u1 = sampler.next_1d();
+        let u_bsdf = sampler.next_2d();
+        // Seen from where it reflects nothing, the light sample and the
+        // BSDF sample both vanish.
+        let Some((reflectance, flip)) = sides.facing(wo) else {
+            return false;
+        };
+        let mut light = None;
+        if let Some((choice, pick_pdf)) = scene.pick_light(draw.u_pick, si.p, si.n) {
+            let rectangle = scene.rectangle_light(choice.emitter);
+            if let Some(r) = rectangle.filter(|r| r.sampled_by_area_from(choice, si.p)) {
+                light = Some((*r, draw.u, pick_pdf));
+            } else if let Some(ls) = sample_chosen_light(scene, choice, si.p, draw.u) {
+                let picked = PickedLightSample {
+                    ls,
+                    pick_pdf,
+                    emitter: choice.emitter,
+                };
+                let bsdf = scene.bsdf_of(si.shape);
+                let crossings = self.crossings(path.depth);
+                path.l += path.beta
+                    * light_sample_contribution(scene, si, bsdf, wo, &picked, 1.0, crossings);
+            }
+        }
+        batch.push(&DiffuseVertex {
+            p: si.p,
+            frame: si.sh_frame,
+            reflectance,
+            flip,
+            u_bsdf,
+            light,
+        });
+        true
+    }
+
+    /// The rest of a queued vertex's bounce, from its wide shading: the
+    /// light sample's shadow ray and contribution, then
+    /// [`PathIntegrator::follow`] along the BSDF sample. `p` and `n` are
+    /// the vertex's point and geometric normal, `reflectance` its BSDF
+    /// sample's weight. False when the path ends.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn finish_diffuse(
+        &self,
+        scene: &Scene,
+        path: &mut Path,
+        (p, n): (Vec3, Vec3),
+        reflectance: Rgb,
+        shading: &DiffuseShading,
+        sampler: &mut SampleStream,
+    ) -> bool {
+        if let Some(ls) = &shading.light {
+            let crossings = self.crossings(path.depth);
+            let tr = transmittance_towards(scene, p, n, ls.wi, ls.dist, crossings);
+            if tr > 0.0 {
+                path.l += path.beta * (ls.f_le * (tr * ls.w / ls.pdf));
+            }
+        }
+        let Some((wi, pdf)) = shading.bsdf else {
+            return false;
+        };
+        let bs = BsdfSample {
+            wi,
+            pdf,
+            eta: 1.0,
+            sampled: BsdfFlags::DIFFUSE_REFLECTION,
+            weight: reflectance,
+        };
+        self.follow(path, p, n, &bs, wi, sampler)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::{Bsdf, Dielectric, Diffuse};
+    use crate::bsdf::{Bsdf, Dielectric, Diffuse, TwoSided};
     use crate::camera::{Camera, FovAxis, Perspective};
     use crate::math::Transform;
     use crate::shape::{Rectangle, Shape, Sphere};
     use crate::SceneBuilder;
     use glam::Affine3A;
 
-    /// A lit box of rectangles with a diffuse and a glass sphere.
+    /// A lit box of rectangles with a diffuse and a glass sphere, and a
+    /// two-sided panel.
     fn room() -> Scene {
         let mut b = SceneBuilder::new();
         let white = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(0.7))));
@@ -311,6 +502,14 @@ mod tests {
             * Affine3A::from_scale(Vec3::splat(0.3));
         b.add_shape(wall(light), None, Some(Rgb::splat(10.0).into()))
             .unwrap();
+        // A panel seen from both sides, each with its own colour.
+        let front = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::new(0.2, 0.6, 0.3))));
+        let back = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::new(0.8, 0.3, 0.1))));
+        let panel = b.add_bsdf(Bsdf::TwoSided(TwoSided { front, back }));
+        let panel_at = Affine3A::from_translation(Vec3::new(-0.5, 0.1, 0.0))
+            * Affine3A::from_rotation_y(2.6)
+            * Affine3A::from_scale(Vec3::splat(0.3));
+        b.add_shape(wall(panel_at), Some(panel), None).unwrap();
         for (c, bsdf) in [
             (Vec3::new(-0.4, -0.6, -0.3), white),
             (Vec3::new(0.4, -0.6, 0.2), glass),
@@ -333,14 +532,16 @@ mod tests {
     }
 
     /// Paths traced in packets (lanes refilled as paths end, some camera
-    /// rays missing) give each sample the value `li` gives it alone.
+    /// rays missing; diffuse vertices shaded eight at a time, from both
+    /// sides of a two-sided panel, with the light sampled by area and by
+    /// solid angle) give each sample the value `li` gives it alone.
     #[test]
     fn packets_of_paths_equal_single_paths() {
         let scene = room();
         let integrator = PathIntegrator::default();
         let mut rays = Vec::new();
         let mut streams = Vec::new();
-        for index in 0..75u32 {
+        for index in 0..300u32 {
             let (x, y) = (index % 8, index / 8 % 8);
             let mut stream = scene.sampler.stream(x, y, index, 3);
             let film_p = glam::Vec2::new(x as f32, y as f32) + stream.next_2d();

@@ -279,8 +279,19 @@ impl SampleStream {
     }
 
     /// The next two values (a pair the pattern samplers stratify jointly).
-    #[inline]
+    #[inline(always)]
     pub fn next_2d(&mut self) -> Vec2 {
+        // Inline for the independent sampler, as `next_1d`.
+        if let Sampler::Independent(_) = self.sampler {
+            let x = self.next_1d();
+            return Vec2::new(x, self.next_1d());
+        }
+        self.next_2d_patterned()
+    }
+
+    /// [`SampleStream::next_2d`] for every sampler.
+    #[inline(never)]
+    fn next_2d_patterned(&mut self) -> Vec2 {
         let (d, i) = (self.dim, self.index);
         let v = match &self.sampler {
             Sampler::Stratified(s) => s.sample_2d(i, self.key(d)),

@@ -29,6 +29,7 @@ pub use disk::Disk;
 #[cfg(test)]
 pub(crate) use mesh::tests as mesh_tests;
 pub use mesh::{MeshData, MeshShape, TriangleMesh};
+pub(crate) use rectangle::NearZone;
 pub use rectangle::Rectangle;
 pub use sphere::Sphere;
 pub(crate) use triangle::lane_tests_avx2;

@@ -62,6 +62,24 @@ struct Geometry {
     spherical: Option<RectangleFrame>,
 }
 
+/// The points from which a rectangle is sampled by the solid angle it
+/// subtends ([`ShapeModel::sample_direction`]): those about as near as
+/// it is large, if it is square-cornered; by area from the others.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct NearZone {
+    center: Vec3,
+    area: f32,
+    spherical: bool,
+}
+
+impl NearZone {
+    /// Whether `p` is sampled by solid angle.
+    #[inline]
+    pub fn contains(&self, p: Vec3) -> bool {
+        self.spherical && self.area >= NEAR_AREA_PER_DISTANCE2 * self.center.distance_squared(p)
+    }
+}
+
 impl Rectangle {
     /// The unit square placed by `to_world`, facing −z if `flip_normals`.
     pub fn new(to_world: Transform, flip_normals: bool) -> Self {
@@ -105,9 +123,26 @@ impl Rectangle {
     /// enough for that to pay and the rectangle is square-cornered.
     #[inline]
     fn near_frame(&self, p: Vec3) -> Option<&RectangleFrame> {
+        let near = self.near_zone().contains(p);
+        self.geometry.spherical.as_ref().filter(|_| near)
+    }
+
+    /// Where the rectangle is sampled by solid angle.
+    #[inline]
+    pub(crate) fn near_zone(&self) -> NearZone {
         let g = &self.geometry;
-        let near = g.area >= NEAR_AREA_PER_DISTANCE2 * g.center.distance_squared(p);
-        g.spherical.as_ref().filter(|_| near)
+        NearZone {
+            center: g.center,
+            area: g.area,
+            spherical: g.spherical.is_some(),
+        }
+    }
+
+    /// The rectangle's placement, normal and density per area, which its
+    /// area sampling reads (for eight light samples at once: the path
+    /// tracer's wide shading).
+    pub(crate) fn area_sampling(&self) -> (&glam::Affine3A, Vec3, f32) {
+        (&self.to_world.m, self.normal(), self.geometry.inv_area)
     }
 
     /// The rectangle as seen from `p`, where spherical sampling applies.
