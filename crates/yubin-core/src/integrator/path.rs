@@ -47,7 +47,7 @@ use super::{
 use crate::accel::PACKET_RAYS;
 use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
 use crate::interaction::SurfaceInteraction;
-use crate::light::LightSelection;
+use crate::light::{LightChoice, LightSelection};
 use crate::math::spawn_ray;
 use crate::math::Ray;
 use crate::params::{ParamError, Params};
@@ -409,8 +409,8 @@ impl PathIntegrator {
         let mut light = None;
         if let Some((choice, pick_pdf)) = scene.pick_light(draw.u_pick, si.p, si.n) {
             let rectangle = scene.rectangle_light(choice.emitter);
-            if let Some(r) = rectangle.filter(|r| r.sampled_by_area_from(choice, si.p)) {
-                light = Some((*r, draw.u, pick_pdf));
+            if let Some(r) = rectangle.filter(|_| choice.prim == LightChoice::WHOLE) {
+                light = Some((r, draw.u, pick_pdf));
             } else if let Some(ls) = sample_chosen_light(scene, choice, si.p, draw.u) {
                 let picked = PickedLightSample {
                     ls,

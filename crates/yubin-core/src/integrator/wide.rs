@@ -1,32 +1,39 @@
 //! Eight vertices of a path packet shaded at once: the vertices whose BSDF
 //! is a `diffuse` of constant reflectance (alone or in `twosided`), with
 //! their light samples where the chosen light is an `area` light of
-//! constant radiance on a `rectangle` sampled by area. For them the light
-//! sample's point, its density and direction, the BSDF's value and density
-//! there, the MIS weight and the BSDF sample of the next direction are
-//! computed in eight lanes (`wide::f32x8`) instead of one vertex after
-//! another, each a chain of dependent square roots and divisions.
+//! constant radiance on a `rectangle`. For them the light sample's point
+//! (by area, or uniformly in the solid angle the rectangle subtends from
+//! points near it), its density and direction, the BSDF's value and
+//! density there, the MIS weight and the BSDF sample of the next
+//! direction are computed in eight lanes (`wide::f32x8`) instead of one
+//! vertex after another, each a chain of dependent square roots and
+//! divisions.
 //!
 //! Every lane does the operations the scalar code does, in the same
 //! order, so a path comes out the same bit for bit whether it was shaded
-//! here or alone ([`super::PathIntegrator`]'s packet test): the light
-//! sample as [`crate::shape::Rectangle`]'s area sampling and
-//! [`crate::light::AreaLight`] make it, the BSDF as
-//! [`crate::bsdf::Diffuse`] and [`crate::bsdf::TwoSided`] evaluate and
-//! sample it (Malley's method on the concentric map of
+//! here or alone (`packets_of_paths_equal_single_paths`,
+//! `wide_light_samples_equal_single_ones`): the light sample as
+//! [`crate::shape::Rectangle`]'s sampling (area sampling, and
+//! [`SphericalRectangle`] with its f64 solid angle and
+//! [`crate::math::sin_cos`]) and [`crate::light::AreaLight`] make it, the
+//! BSDF as [`crate::bsdf::Diffuse`] and [`crate::bsdf::TwoSided`] evaluate
+//! and sample it (Malley's method on the concentric map of
 //! [`crate::sampling::square_to_cosine_hemisphere`]). Shadow rays, the
 //! sampler's numbers and everything else stay per lane.
 
 use crate::bsdf::Bsdf;
-use crate::light::{Emitter, EmitterOptions, LightChoice};
+use crate::light::{Emitter, EmitterOptions};
 use crate::material::Materials;
-use crate::math::Frame;
+use crate::math::{Frame, PIO2_HI, PIO2_LO, ROUND_TO_INTEGER, TAN_PI_8};
+use crate::sampling::{
+    RectangleFrame, SphericalRectangle, SPHERICAL_MAX_SOLID_ANGLE, SPHERICAL_MIN_SOLID_ANGLE,
+};
 use crate::shape::{NearZone, Shape};
 use crate::texture::Tex;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
-use wide::{f32x8, CmpEq, CmpGe, CmpGt, CmpLe};
+use std::f32::consts::{FRAC_1_PI, FRAC_2_PI, FRAC_PI_2, FRAC_PI_4, PI};
+use wide::{f32x8, f64x4, i32x8, CmpEq, CmpGe, CmpGt, CmpLe};
 
 /// Lanes of a batch.
 pub(crate) const LANES: usize = 8;
@@ -99,8 +106,9 @@ pub(crate) struct RectangleLight {
     radiance: Rgb,
     /// Whether the light sample is weighed by MIS against BSDF sampling.
     mis: bool,
-    /// Where the rectangle is sampled by solid angle instead (not here).
+    /// Where the rectangle is sampled by solid angle, and what that reads.
     near: NearZone,
+    spherical: Option<RectangleFrame>,
 }
 
 impl RectangleLight {
@@ -116,7 +124,7 @@ impl RectangleLight {
         let Shape::Rectangle(r) = &shapes[a.shape as usize] else {
             return None;
         };
-        let (m, normal, inv_area) = r.area_sampling();
+        let (m, normal, inv_area, spherical) = r.sampling_data();
         Some(Self {
             x_axis: m.matrix3.x_axis.into(),
             y_axis: m.matrix3.y_axis.into(),
@@ -127,19 +135,21 @@ impl RectangleLight {
             radiance,
             mis: options.visible_indirect,
             near: r.near_zone(),
+            spherical,
         })
     }
 
-    /// Whether the light, chosen whole, is sampled by area from `p`.
+    /// The rectangle's frame for spherical sampling when `p` is near
+    /// enough for that.
     #[inline]
-    pub fn sampled_by_area_from(&self, light: LightChoice, p: Vec3) -> bool {
-        light.prim == LightChoice::WHOLE && !self.near.contains(p)
+    pub fn near_frame(&self, p: Vec3) -> Option<&RectangleFrame> {
+        self.spherical.as_ref().filter(|_| self.near.contains(p))
     }
 }
 
 /// One lane's inputs.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct DiffuseVertex {
+pub(crate) struct DiffuseVertex<'a> {
     /// The hit point.
     pub p: Vec3,
     /// The shading frame.
@@ -150,7 +160,7 @@ pub(crate) struct DiffuseVertex {
     /// The BSDF sample's numbers.
     pub u_bsdf: Vec2,
     /// The light to sample with its numbers and choice probability.
-    pub light: Option<(RectangleLight, Vec2, f32)>,
+    pub light: Option<(&'a RectangleLight, Vec2, f32)>,
 }
 
 /// A light sample of a lane, before its shadow ray.
@@ -194,7 +204,19 @@ pub(crate) struct DiffuseBatch {
     inv_area: [f32; LANES],
     radiance: [[f32; LANES]; 3],
     mis: [f32; LANES],
+    /// The lanes whose light is sampled by solid angle (a bit each), and
+    /// their rectangles' frames.
+    near: u32,
+    frames: [[f32; LANES]; FRAME_VALUES],
 }
+
+/// [`RectangleFrame`]'s values in lanes: corner, edges, unit edges and
+/// normal (three each), edge lengths and their reciprocals.
+const FRAME_VALUES: usize = 22;
+
+/// Up to this many lanes sampled by solid angle are sampled one by one:
+/// the eight-lane sampling costs about as much as that many single ones.
+const FEW_NEAR: u32 = 2;
 
 /// A 3-vector in eight lanes.
 type V3 = [f32x8; 3];
@@ -225,6 +247,7 @@ impl DiffuseBatch {
     #[inline]
     pub fn clear(&mut self) {
         self.len = 0;
+        self.near = 0;
     }
 
     /// The reflectance of lane `i`.
@@ -239,7 +262,7 @@ impl DiffuseBatch {
 
     /// Adds a lane.
     #[inline]
-    pub fn push(&mut self, v: &DiffuseVertex) {
+    pub fn push(&mut self, v: &DiffuseVertex<'_>) {
         let i = self.len;
         self.len += 1;
         for a in 0..3 {
@@ -270,6 +293,17 @@ impl DiffuseBatch {
         }
         self.inv_area[i] = l.inv_area;
         self.mis[i] = if l.mis { 1.0 } else { 0.0 };
+        if let Some(r) = l.near_frame(v.p) {
+            self.near |= 1 << i;
+            for (k, v) in [r.corner, r.ex, r.ey, r.x, r.y, r.z].iter().enumerate() {
+                for a in 0..3 {
+                    self.frames[3 * k + a][i] = v[a];
+                }
+            }
+            for (k, v) in [r.w, r.l, r.inv_w, r.inv_l].into_iter().enumerate() {
+                self.frames[18 + k][i] = v;
+            }
+        }
     }
 
     /// Shades every lane (`out[i]` for the i-th pushed).
@@ -314,6 +348,28 @@ impl DiffuseBatch {
         let inv_area = f32x8::new(self.inv_area);
         let degenerate = n_dot_d.cmp_le(f32x8::splat(1e-7) * dist) | dist2.cmp_eq(zero);
         let pdf = select(degenerate, zero, inv_area * dist2 * dist / n_dot_d);
+        // Nearer lanes sample the solid angle where it is in range.
+        let (q, pdf) = match self.near.count_ones() {
+            0 => (q, pdf),
+            1..=FEW_NEAR => self.few_spherical_samples(p, &u, q, pdf),
+            _ => {
+                let (q_near, pdf_near, in_range) = self.spherical_samples(p, &u);
+                let near = f32x8::new(std::array::from_fn(|i| {
+                    if self.near >> i & 1 != 0 {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                }));
+                let near = near.cmp_eq(one) & in_range;
+                (
+                    std::array::from_fn(|a| select(near, q_near[a], q[a])),
+                    select(near, pdf_near, pdf),
+                )
+            }
+        };
+        let d: V3 = std::array::from_fn(|a| q[a] - p[a]);
+        let dist = dot(&d, &d).sqrt();
         // The area light's checks and direction (`emitted_towards`).
         let bad_pdf = pdf.is_nan() | pdf.cmp_le(zero) | !pdf.is_finite();
         let inv_dist = one / dist;
@@ -353,6 +409,100 @@ impl DiffuseBatch {
                 dist: dist[i],
             })
         })
+    }
+
+    /// The points `q` and densities `pdf` of area sampling, with those of
+    /// the few lanes sampled by solid angle replaced lane by lane
+    /// ([`SphericalRectangle`], whose values [`Self::spherical_samples`]
+    /// gives in lanes), where their solid angle is in range.
+    #[inline(never)]
+    fn few_spherical_samples(&self, o: &V3, u: &[f32x8; 2], q: V3, pdf: f32x8) -> (V3, f32x8) {
+        let (mut q, mut pdf) = (q.map(|c| c.to_array()), pdf.to_array());
+        let (o, u) = (o.map(|c| c.to_array()), u.map(|c| c.to_array()));
+        for i in (0..LANES).filter(|i| self.near >> i & 1 != 0) {
+            let f = |k: usize| self.frames[k][i];
+            let v = |k: usize| Vec3::new(f(3 * k), f(3 * k + 1), f(3 * k + 2));
+            let frame = RectangleFrame {
+                corner: v(0),
+                ex: v(1),
+                ey: v(2),
+                x: v(3),
+                y: v(4),
+                z: v(5),
+                w: f(18),
+                l: f(19),
+                inv_w: f(20),
+                inv_l: f(21),
+            };
+            let p = Vec3::new(o[0][i], o[1][i], o[2][i]);
+            if let Some(sr) = SphericalRectangle::new(p, &frame) {
+                let (point, _) = sr.sample(Vec2::new(u[0][i], u[1][i]));
+                for a in 0..3 {
+                    q[a][i] = point[a];
+                }
+                pdf[i] = 1.0 / sr.solid_angle();
+            }
+        }
+        (q.map(f32x8::new), f32x8::new(pdf))
+    }
+
+    /// Points sampled uniformly in the solid angle the lanes' rectangles
+    /// subtend from `o` (as [`crate::sampling::SphericalRectangle`]), their
+    /// density, and where the solid angle is in the range that sampling
+    /// takes.
+    #[inline(never)]
+    fn spherical_samples(&self, o: &V3, u: &[f32x8; 2]) -> (V3, f32x8, f32x8) {
+        let c = f32x8::splat;
+        let f = lanes(&self.frames);
+        let vec = |k: usize| [f[3 * k], f[3 * k + 1], f[3 * k + 2]];
+        let (corner, ex, ey) = (vec(0), vec(1), vec(2));
+        let (x, y, z) = (vec(3), vec(4), vec(5));
+        let (w, l, inv_w, inv_l) = (f[18], f[19], f[20], f[21]);
+        // The rectangle in the frame at o (`LocalFrame`).
+        let d: V3 = std::array::from_fn(|a| corner[a] - o[a]);
+        let (x0, y0) = (dot(&d, &x), dot(&d, &y));
+        let (x1, y1) = (x0 + w, y0 + l);
+        let h = dot(&d, &z).abs();
+        // Its corners' distances (`Corners`).
+        let z0 = negate(h);
+        let length = |x: f32x8, y: f32x8| (x * x + y * y + z0 * z0).sqrt();
+        let len = [
+            length(x0, y0),
+            length(x1, y0),
+            length(x1, y1),
+            length(x0, y1),
+        ];
+        let corners = [[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]];
+        let solid_angle = solid_angle(&corners, &len);
+        let in_range = solid_angle.cmp_ge(c(SPHERICAL_MIN_SOLID_ANGLE))
+            & solid_angle.cmp_le(c(SPHERICAL_MAX_SOLID_ANGLE));
+        // `SphericalRectangle::new`.
+        let h2 = h * h;
+        let (c2, s2) = (x0 * y1, h * len[3]);
+        let (c3, s3) = (negate(x0) * y0, h * len[0]);
+        let b0 = negate(y0) / (h2 + y0 * y0).sqrt();
+        let b1 = y1 / (h2 + y1 * y1).sqrt();
+        let norm = f32x8::ONE / ((c2 * c2 + s2 * s2) * (c3 * c3 + s3 * s3)).sqrt();
+        let cos_g = (c2 * c3 - s2 * s3) * norm;
+        let sin_g = (s2 * c3 + c2 * s3) * norm;
+        // `SphericalRectangle::sample`.
+        let (sin_us, cos_us) = sin_cos(u[0] * solid_angle);
+        let sin_au = sin_us * cos_g - cos_us * sin_g;
+        let cos_au = cos_us * cos_g + sin_us * sin_g;
+        let fu = (cos_au * b0 - b1) / sin_au;
+        let f2 = fu * fu + b0 * b0;
+        let xu = h.copysign(fu) / (f2 - f32x8::ONE).max(c(1e-12)).sqrt();
+        let xu = xu.max(x0).min(x1);
+        let dist2 = xu * xu + h2;
+        let h0 = y0 / (dist2 + y0 * y0).sqrt();
+        let h1 = y1 / (dist2 + y1 * y1).sqrt();
+        let hv = h0 + u[1] * (h1 - h0);
+        let yv = hv * (dist2 / (f32x8::ONE - hv * hv).max(c(1e-12))).sqrt();
+        let yv = yv.max(y0).min(y1);
+        let clamp = |v: f32x8| v.max(f32x8::ZERO).min(f32x8::ONE);
+        let (ux, uy) = (clamp((xu - x0) * inv_w), clamp((yv - y0) * inv_l));
+        let q = std::array::from_fn(|a| corner[a] + ux * ex[a] + uy * ey[a]);
+        (q, f32x8::ONE / solid_angle, in_range)
     }
 
     /// The BSDF samples: cosine-weighted directions, mirrored to the side
@@ -399,6 +549,95 @@ fn power_heuristic(pdf_a: f32x8, pdf_b: f32x8) -> f32x8 {
     )
 }
 
+/// −v, by its sign bit (as `-v` is; 0 − v would turn −0 into +0).
+#[inline]
+fn negate(v: f32x8) -> f32x8 {
+    v ^ f32x8::splat(-0.0)
+}
+
+/// The solid angle of the rectangle with corners `v` (distances `len`)
+/// seen from the origin, as `Corners::solid_angle`: the two triangles'
+/// Van Oosterom–Strackee half-angles summed as a product of complex
+/// numbers in f64, and one arctangent.
+#[inline]
+fn solid_angle(v: &[V3; 4], len: &[f32x8; 4]) -> f32x8 {
+    let triple = v[0][2].abs() * (v[2][0] - v[0][0]) * (v[2][1] - v[0][1]);
+    let den = |a: usize, b: usize, c: usize| {
+        len[a] * len[b] * len[c]
+            + dot(&v[a], &v[b]) * len[c]
+            + dot(&v[a], &v[c]) * len[b]
+            + dot(&v[b], &v[c]) * len[a]
+    };
+    let (t, d0, d1) = (
+        triple.to_array(),
+        den(0, 1, 2).to_array(),
+        den(0, 2, 3).to_array(),
+    );
+    let mut ratio = [0.0f32; LANES];
+    let mut steep = [0.0f32; LANES];
+    let mut x_negative = [0.0f32; LANES];
+    let mut y_negative = [0.0f32; LANES];
+    for half in 0..2 {
+        let f64s =
+            |v: &[f32; LANES]| f64x4::new(std::array::from_fn(|i| f64::from(v[4 * half + i])));
+        let (t, d0, d1) = (f64s(&t), f64s(&d0), f64s(&d1));
+        // `atan2_f64`'s ratio and octant.
+        let (y, x) = (t * (d0 + d1), d0 * d1 - t * t);
+        let (ax, ay) = (x.abs(), y.abs());
+        let is_steep = ay.cmp_gt(ax);
+        let (lo, hi) = (is_steep.blend(ax, ay), is_steep.blend(ay, ax));
+        let r = (lo / hi).to_array();
+        let (hi, is_steep) = (hi.to_array(), is_steep.to_array());
+        let (x, y) = (x.to_array(), y.to_array());
+        for i in 0..4 {
+            let lane = 4 * half + i;
+            ratio[lane] = if hi[i] > 0.0 { r[i] as f32 } else { 0.0 };
+            steep[lane] = if is_steep[i] != 0.0 { 1.0 } else { 0.0 };
+            x_negative[lane] = if x[i] < 0.0 { 1.0 } else { 0.0 };
+            y_negative[lane] = if y[i] < 0.0 { 1.0 } else { 0.0 };
+        }
+    }
+    let one = f32x8::ONE;
+    let r = atan_unit(f32x8::new(ratio));
+    let r = f32x8::new(steep)
+        .cmp_eq(one)
+        .blend(f32x8::splat(FRAC_PI_2) - r, r);
+    let r = f32x8::new(x_negative)
+        .cmp_eq(one)
+        .blend(f32x8::splat(PI) - r, r);
+    let r = f32x8::new(y_negative).cmp_eq(one).blend(negate(r), r);
+    f32x8::splat(2.0) * r
+}
+
+/// `atan_unit` (atan on [0, 1]) lane by lane.
+#[inline]
+fn atan_unit(a: f32x8) -> f32x8 {
+    let c = f32x8::splat;
+    let reduce = a.cmp_gt(c(TAN_PI_8));
+    let t = reduce.blend((a - f32x8::ONE) / (a + f32x8::ONE), a);
+    let z = t * t;
+    let p = (((c(8.053_744_5e-2) * z - c(1.387_768_6e-1)) * z + c(1.997_771_1e-1)) * z
+        - c(3.333_295e-1))
+        * z
+        * t
+        + t;
+    reduce.blend(c(FRAC_PI_4) + p, p)
+}
+
+/// [`crate::math::sin_cos`] lane by lane.
+#[inline]
+fn sin_cos(a: f32x8) -> (f32x8, f32x8) {
+    let c = f32x8::splat;
+    let k = (a * c(FRAC_2_PI) + c(ROUND_TO_INTEGER)) - c(ROUND_TO_INTEGER);
+    let (s, co) = sin_cos_quarter((a - k * c(PIO2_HI)) - k * c(PIO2_LO));
+    let quadrant = k.round_int() & i32x8::splat(3);
+    let is = |q: i32| -> f32x8 { bytemuck::cast(quadrant.cmp_eq(i32x8::splat(q))) };
+    let (q1, q2, q3) = (is(1), is(2), is(3));
+    let sin = q1.blend(co, q2.blend(negate(s), q3.blend(negate(co), s)));
+    let cos = q1.blend(negate(s), q2.blend(negate(co), q3.blend(s, co)));
+    (sin, cos)
+}
+
 /// [`crate::math::sin_cos_quarter`] lane by lane.
 #[inline]
 fn sin_cos_quarter(a: f32x8) -> (f32x8, f32x8) {
@@ -409,4 +648,99 @@ fn sin_cos_quarter(a: f32x8) -> (f32x8, f32x8) {
         - c(0.5) * z
         + c(1.0);
     (sin, cos)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrator::sample_chosen_light;
+    use crate::light::LightChoice;
+    use crate::math::Transform;
+    use crate::sampler::Pcg32;
+    use crate::shape::Rectangle;
+    use crate::SceneBuilder;
+    use glam::Affine3A;
+
+    /// A rectangle light placed by `m`, alone in a scene.
+    fn lit_by(m: Affine3A) -> crate::Scene {
+        let mut b = SceneBuilder::new();
+        let rectangle = Shape::Rectangle(Rectangle::new(Transform::new(m).unwrap(), false));
+        b.add_shape(rectangle, None, Some(Rgb::new(3.0, 2.0, 1.0).into()))
+            .unwrap();
+        b.build().unwrap()
+    }
+
+    /// Eight lanes' light samples are the scalar light samples bit for
+    /// bit, by area and by solid angle, near lights and far, for lights
+    /// square and sheared, with a frame facing the light (so that the
+    /// diffuse BSDF keeps every sample the light gives).
+    #[test]
+    fn wide_light_samples_equal_single_ones() {
+        let lights = [
+            Affine3A::from_translation(Vec3::new(0.0, 2.0, 0.0)) * Affine3A::from_rotation_x(1.57),
+            Affine3A::from_translation(Vec3::new(0.3, 1.0, -0.2))
+                * Affine3A::from_rotation_x(2.0)
+                * Affine3A::from_scale(Vec3::new(3.0, 0.4, 1.0)),
+            // Sheared: sampled by area from everywhere.
+            Affine3A::from_rotation_x(1.0)
+                * Affine3A::from_cols_array(&[
+                    1.0, 0.0, 0.0, 0.6, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0,
+                ]),
+        ];
+        let mut rng = Pcg32::new(7, 1);
+        let (mut near, mut far, mut kept) = (0, 0, 0);
+        for m in lights {
+            let scene = lit_by(m);
+            let light = scene.rectangle_light(0).copied().unwrap();
+            let choice = LightChoice {
+                emitter: 0,
+                prim: LightChoice::WHOLE,
+            };
+            let centre = m.transform_point3(Vec3::ZERO);
+            for _ in 0..400 {
+                let mut batch = DiffuseBatch::default();
+                let mut cases = Vec::new();
+                for _ in 0..LANES {
+                    let r = 0.05 + 6.0 * rng.next_f32().powi(2);
+                    let dir = crate::sampling::square_to_uniform_sphere(rng.next_2d());
+                    let p = centre + r * dir;
+                    let u = rng.next_2d();
+                    let facing = (centre - p).normalize();
+                    if light.near_frame(p).is_some() {
+                        near += 1;
+                    } else {
+                        far += 1;
+                    }
+                    batch.push(&DiffuseVertex {
+                        p,
+                        frame: Frame::from_normal(facing),
+                        reflectance: Rgb::ONE,
+                        flip: 1.0,
+                        u_bsdf: Vec2::splat(0.3),
+                        light: Some((&light, u, 1.0)),
+                    });
+                    cases.push((p, u));
+                }
+                let mut out = [DiffuseShading::default(); LANES];
+                batch.shade(&mut out);
+                for ((p, u), o) in cases.into_iter().zip(out) {
+                    let single = sample_chosen_light(&scene, choice, p, u)
+                        .filter(|ls| ls.wi.dot((centre - p).normalize()) > 0.0);
+                    let wide = o.light.map(|l| (l.wi, l.dist, l.pdf));
+                    let single = single.map(|ls| (ls.wi, ls.dist, ls.pdf));
+                    let bits = |v: Option<(Vec3, f32, f32)>| {
+                        v.map(|(w, d, p)| {
+                            (w.to_array().map(f32::to_bits), d.to_bits(), p.to_bits())
+                        })
+                    };
+                    assert_eq!(bits(wide), bits(single), "{p} {u}");
+                    kept += usize::from(wide.is_some());
+                }
+            }
+        }
+        assert!(
+            near > 1000 && far > 1000 && kept > 3000,
+            "{near} {far} {kept}"
+        );
+    }
 }

@@ -11,7 +11,7 @@ use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 use wide::{f32x4, CmpGt, CmpLt};
 
 /// tan(π/8).
-const TAN_PI_8: f32 = 0.414_213_57;
+pub(crate) const TAN_PI_8: f32 = 0.414_213_57;
 
 /// atan(a) for a in [0, 1].
 #[inline]

@@ -57,18 +57,18 @@ pub struct SphericalRectangle {
 /// sample's own dozen divisions and square roots keep busy.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RectangleFrame {
-    corner: Vec3,
-    ex: Vec3,
-    ey: Vec3,
+    pub(crate) corner: Vec3,
+    pub(crate) ex: Vec3,
+    pub(crate) ey: Vec3,
     /// Unit `ex` and `ey`, and their cross product.
-    x: Vec3,
-    y: Vec3,
-    z: Vec3,
+    pub(crate) x: Vec3,
+    pub(crate) y: Vec3,
+    pub(crate) z: Vec3,
     /// The edges' lengths and their reciprocals.
-    w: f32,
-    l: f32,
-    inv_w: f32,
-    inv_l: f32,
+    pub(crate) w: f32,
+    pub(crate) l: f32,
+    pub(crate) inv_w: f32,
+    pub(crate) inv_l: f32,
 }
 
 impl RectangleFrame {
@@ -157,7 +157,7 @@ impl SphericalRectangle {
         // The line x = xu whose strip [x0, xu] subtends u.x of the angle
         // (Ureña et al.'s cu = 1/√(fu² + b0²), folded into xu).
         // au = u.x Ω + 2π − g, by the angle-sum rules.
-        let (sin_us, cos_us) = (u.x * self.solid_angle).sin_cos();
+        let (sin_us, cos_us) = crate::math::sin_cos(u.x * self.solid_angle);
         let sin_au = sin_us * self.cos_g - cos_us * self.sin_g;
         let cos_au = cos_us * self.cos_g + sin_us * self.sin_g;
         let fu = (cos_au * self.b0 - self.b1) / sin_au;

@@ -139,10 +139,11 @@ impl Rectangle {
     }
 
     /// The rectangle's placement, normal and density per area, which its
-    /// area sampling reads (for eight light samples at once: the path
-    /// tracer's wide shading).
-    pub(crate) fn area_sampling(&self) -> (&glam::Affine3A, Vec3, f32) {
-        (&self.to_world.m, self.normal(), self.geometry.inv_area)
+    /// area sampling reads, and its frame for spherical sampling (for
+    /// eight light samples at once: the path tracer's wide shading).
+    pub(crate) fn sampling_data(&self) -> (&glam::Affine3A, Vec3, f32, Option<RectangleFrame>) {
+        let g = &self.geometry;
+        (&self.to_world.m, self.normal(), g.inv_area, g.spherical)
     }
 
     /// The rectangle as seen from `p`, where spherical sampling applies.
