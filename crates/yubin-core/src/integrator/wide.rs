@@ -315,7 +315,11 @@ impl DiffuseBatch {
         let n = [frame[6], frame[7], frame[8]];
         let p = lanes(&self.p);
         let flip = f32x8::new(self.flip);
-        let light = self.light_samples(&p, &n, flip);
+        let light = if self.has_light[..self.len].contains(&1.0) {
+            self.light_samples(&p, &n, flip)
+        } else {
+            [None; LANES]
+        };
         let bsdf = self.bsdf_samples(&s, &t, &n, flip);
         for (i, o) in out.iter_mut().enumerate().take(self.len) {
             o.light = light[i];
