@@ -307,8 +307,12 @@ impl DiffuseBatch {
     }
 
     /// Shades every lane (`out[i]` for the i-th pushed).
-    #[inline(never)]
     pub fn shade(&self, out: &mut [DiffuseShading; LANES]) {
+        shade_dispatch(self, out)
+    }
+
+    #[inline(always)]
+    fn shade_lanes(&self, out: &mut [DiffuseShading; LANES]) {
         let frame = lanes(&self.frame);
         let s = [frame[0], frame[1], frame[2]];
         let t = [frame[3], frame[4], frame[5]];
@@ -419,7 +423,7 @@ impl DiffuseBatch {
     /// the few lanes sampled by solid angle replaced lane by lane
     /// ([`SphericalRectangle`], whose values [`Self::spherical_samples`]
     /// gives in lanes), where their solid angle is in range.
-    #[inline(never)]
+    #[inline]
     fn few_spherical_samples(&self, o: &V3, u: &[f32x8; 2], q: V3, pdf: f32x8) -> (V3, f32x8) {
         let (mut q, mut pdf) = (q.map(|c| c.to_array()), pdf.to_array());
         let (o, u) = (o.map(|c| c.to_array()), u.map(|c| c.to_array()));
@@ -454,7 +458,7 @@ impl DiffuseBatch {
     /// subtend from `o` (as [`crate::sampling::SphericalRectangle`]), their
     /// density, and where the solid angle is in the range that sampling
     /// takes.
-    #[inline(never)]
+    #[inline(always)]
     fn spherical_samples(&self, o: &V3, u: &[f32x8; 2]) -> (V3, f32x8, f32x8) {
         let c = f32x8::splat;
         let f = lanes(&self.frames);
@@ -539,6 +543,14 @@ impl DiffuseBatch {
             (ok[i] != 0.0).then(|| (Vec3::new(wi[0][i], wi[1][i], wi[2][i]), pdf[i]))
         })
     }
+}
+
+/// [`DiffuseBatch::shade`], compiled for baseline x86-64 and for AVX2
+/// (three-operand instructions; products and sums stay unfused, so the
+/// same values bit for bit) and chosen by the CPU at run time.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn shade_dispatch(batch: &DiffuseBatch, out: &mut [DiffuseShading; LANES]) {
+    batch.shade_lanes(out)
 }
 
 /// [`crate::sampling::power_heuristic`] lane by lane.
