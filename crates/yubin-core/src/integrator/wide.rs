@@ -24,7 +24,9 @@
 use crate::bsdf::Bsdf;
 use crate::light::{Emitter, EmitterOptions};
 use crate::material::Materials;
-use crate::math::{Frame, PIO2_HI, PIO2_LO, ROUND_TO_INTEGER, TAN_PI_8};
+use crate::math::{
+    Frame, ATAN_UNIT, COS_QUARTER, PIO2_HI, PIO2_LO, ROUND_TO_INTEGER, SIN_QUARTER, TAN_PI_8,
+};
 use crate::sampling::{
     RectangleFrame, SphericalRectangle, SPHERICAL_MAX_SOLID_ANGLE, SPHERICAL_MIN_SOLID_ANGLE,
 };
@@ -632,11 +634,8 @@ fn atan_unit(a: f32x8) -> f32x8 {
     let reduce = a.cmp_gt(c(TAN_PI_8));
     let t = reduce.blend((a - f32x8::ONE) / (a + f32x8::ONE), a);
     let z = t * t;
-    let p = (((c(8.053_744_5e-2) * z - c(1.387_768_6e-1)) * z + c(1.997_771_1e-1)) * z
-        - c(3.333_295e-1))
-        * z
-        * t
-        + t;
+    let [a0, a1, a2, a3] = ATAN_UNIT.map(c);
+    let p = (((a0 * z - a1) * z + a2) * z - a3) * z * t + t;
     reduce.blend(c(FRAC_PI_4) + p, p)
 }
 
@@ -659,10 +658,9 @@ fn sin_cos(a: f32x8) -> (f32x8, f32x8) {
 fn sin_cos_quarter(a: f32x8) -> (f32x8, f32x8) {
     let c = f32x8::splat;
     let z = a * a;
-    let sin = ((c(-1.951_529_6e-4) * z + c(8.332_161e-3)) * z - c(1.666_665_5e-1)) * z * a + a;
-    let cos = ((c(2.443_315_7e-5) * z - c(1.388_731_6e-3)) * z + c(4.166_664_6e-2)) * z * z
-        - c(0.5) * z
-        + c(1.0);
+    let ([s0, s1, s2], [c0, c1, c2]) = (SIN_QUARTER.map(c), COS_QUARTER.map(c));
+    let sin = ((s0 * z + s1) * z - s2) * z * a + a;
+    let cos = ((c0 * z - c1) * z + c2) * z * z - c(0.5) * z + f32x8::ONE;
     (sin, cos)
 }
 

@@ -13,15 +13,19 @@ use wide::{f32x4, CmpGt, CmpLt};
 /// tan(π/8).
 pub(crate) const TAN_PI_8: f32 = 0.414_213_57;
 
+/// The coefficients of [`atan_unit`]'s polynomial (also read by its
+/// lane-wise twins).
+pub(crate) const ATAN_UNIT: [f32; 4] =
+    [8.053_744_5e-2, 1.387_768_6e-1, 1.997_771_1e-1, 3.333_295e-1];
+
 /// atan(a) for a in [0, 1].
 #[inline]
 fn atan_unit(a: f32) -> f32 {
     let reduce = a > TAN_PI_8;
     let t = if reduce { (a - 1.0) / (a + 1.0) } else { a };
+    let [a0, a1, a2, a3] = ATAN_UNIT;
     let z = t * t;
-    let p =
-        (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1) * z * t
-            + t;
+    let p = (((a0 * z - a1) * z + a2) * z - a3) * z * t + t;
     if reduce {
         FRAC_PI_4 + p
     } else {
@@ -83,11 +87,8 @@ pub fn atan2_pair(y: [f32; 2], x: [f32; 2]) -> [f32; 2] {
     let reduce = a.cmp_gt(s(TAN_PI_8));
     let t = reduce.blend((a - f32x4::ONE) / (a + f32x4::ONE), a);
     let z = t * t;
-    let p = ((((s(8.053_744_5e-2) * z - s(1.387_768_6e-1)) * z + s(1.997_771_1e-1)) * z
-        - s(3.333_295e-1))
-        * z)
-        * t
-        + t;
+    let [a0, a1, a2, a3] = ATAN_UNIT.map(s);
+    let p = ((((a0 * z - a1) * z + a2) * z - a3) * z) * t + t;
     let r = reduce.blend(s(FRAC_PI_4) + p, p);
     let r = steep.blend(s(FRAC_PI_2) - r, r);
     let r = x.cmp_lt(f32x4::ZERO).blend(s(PI) - r, r);

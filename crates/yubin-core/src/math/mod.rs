@@ -5,8 +5,8 @@ mod bounds;
 mod frame;
 mod transform;
 
-pub(crate) use atan::TAN_PI_8;
 pub use atan::{atan2, atan2_f64, atan2_pair};
+pub(crate) use atan::{ATAN_UNIT, TAN_PI_8};
 pub use bounds::Bounds3;
 pub use frame::{coordinate_system, Frame};
 pub use transform::Transform;
@@ -159,11 +159,18 @@ pub fn floor3(v: Vec3) -> Vec3 {
 /// `sinf.c`), within 2·10⁻⁷ of the exact values (`quarter_sin_cos_is_accurate`).
 #[inline]
 pub fn sin_cos_quarter(a: f32) -> (f32, f32) {
+    let ([s0, s1, s2], [c0, c1, c2]) = (SIN_QUARTER, COS_QUARTER);
     let z = a * a;
-    let sin = ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * a + a;
-    let cos = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
+    let sin = ((s0 * z + s1) * z - s2) * z * a + a;
+    let cos = ((c0 * z - c1) * z + c2) * z * z - 0.5 * z + 1.0;
     (sin, cos)
 }
+
+/// The coefficients of [`sin_cos_quarter`]'s sine polynomial (also read
+/// by its eight-lane twin).
+pub(crate) const SIN_QUARTER: [f32; 3] = [-1.951_529_6e-4, 8.332_161e-3, 1.666_665_5e-1];
+/// The coefficients of its cosine polynomial.
+pub(crate) const COS_QUARTER: [f32; 3] = [2.443_315_7e-5, 1.388_731_6e-3, 4.166_664_6e-2];
 
 /// π/2's leading 17 bits, so that k·`PIO2_HI` is exact for the quadrant
 /// counts k of [`sin_cos`] (Cody and Waite's two-part reduction).
