@@ -15,7 +15,7 @@
 //! single-ray arithmetic lane by lane, bit for bit; other shapes,
 //! triangles and instances are tested ray by ray.
 
-use super::{Closest, Group, HitRecord, Item, Scene};
+use super::{Group, HitRecord, Item, Scene};
 use crate::accel::{Node, PacketLanes, PACKET_RAYS};
 use crate::math::{Ray, RayPacket};
 use crate::shape::{PrimHit, Shape, ShapeModel, TrianglePackets, WatertightRay};
@@ -38,11 +38,11 @@ fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
 struct PacketHits<'r> {
     rays: &'r [Ray; PACKET_RAYS],
     t_max: [f32; PACKET_RAYS],
-    best: [Option<Closest>; PACKET_RAYS],
+    best: [Option<HitRecord>; PACKET_RAYS],
 }
 
 impl PacketHits<'_> {
-    fn record(&mut self, lane: usize, hit: Closest, t: f32) {
+    fn record(&mut self, lane: usize, hit: HitRecord, t: f32) {
         self.best[lane] = Some(hit);
         self.t_max[lane] = t;
     }
@@ -173,7 +173,14 @@ impl Scene {
                         if let Some((i, hit)) =
                             (kernels.triangles)(wr, &g.tris, start, count, t_max)
                         {
-                            hits.record(lane, Closest::Triangle(g.tris.id(start + i), hit), hit.t);
+                            let (shape, prim) = g.triangle(g.tris.id(start + i));
+                            let rec = HitRecord {
+                                shape,
+                                prim,
+                                hit,
+                                instance: None,
+                            };
+                            hits.record(lane, rec, hit.t);
                         }
                     }
                 }
@@ -185,20 +192,7 @@ impl Scene {
                 f32x8::new(hits.t_max)
             },
         );
-        hits.best.map(|best| {
-            best.map(|closest| match closest {
-                Closest::Other(rec) => rec,
-                Closest::Triangle(id, hit) => {
-                    let (shape, prim) = g.triangle(id);
-                    HitRecord {
-                        shape,
-                        prim,
-                        hit,
-                        instance: None,
-                    }
-                }
-            })
-        })
+        hits.best
     }
 
     /// Tests `item` (not a triangle) against the lanes `mask` of `packet`.
@@ -221,7 +215,7 @@ impl Scene {
                         hit,
                         instance: None,
                     };
-                    hits.record(lane, Closest::Other(rec), hit.t);
+                    hits.record(lane, rec, hit.t);
                 };
                 let shape_ref = &self.shapes[shape as usize];
                 match shape_test(shape_ref, packet, f32x8::new(hits.t_max)) {
@@ -248,7 +242,7 @@ impl Scene {
                 for lane in lanes_of(mask) {
                     let local = super::to_local_ray(&hits.ray(lane), &placed.to_world);
                     if let Some(h) = self.closest_in_group(group, &local, Some(inst)) {
-                        hits.record(lane, Closest::Other(h), h.hit.t);
+                        hits.record(lane, h, h.hit.t);
                     }
                 }
             }
