@@ -42,9 +42,25 @@ struct PacketHits<'r> {
 }
 
 impl PacketHits<'_> {
-    fn record(&mut self, lane: usize, hit: HitRecord, t: f32) {
-        self.best[lane] = Some(hit);
-        self.t_max[lane] = t;
+    /// Records `rec` as the closest hit of `lane` so far.
+    fn record(&mut self, lane: usize, rec: HitRecord) {
+        self.t_max[lane] = rec.hit.t;
+        self.best[lane] = Some(rec);
+    }
+
+    /// Records `hit` on primitive `prim` of shape `shape` (not through an
+    /// instance) as the closest hit of `lane` so far.
+    fn record_prim(&mut self, lane: usize, shape: u32, prim: u32, hit: PrimHit) {
+        let instance = None;
+        self.record(
+            lane,
+            HitRecord {
+                shape,
+                prim,
+                hit,
+                instance,
+            },
+        );
     }
 
     /// Lane `lane`'s ray, cut at its closest hit so far.
@@ -174,13 +190,7 @@ impl Scene {
                             (kernels.triangles)(wr, &g.tris, start, count, t_max)
                         {
                             let (shape, prim) = g.triangle(g.tris.id(start + i));
-                            let rec = HitRecord {
-                                shape,
-                                prim,
-                                hit,
-                                instance: None,
-                            };
-                            hits.record(lane, rec, hit.t);
+                            hits.record_prim(lane, shape, prim, hit);
                         }
                     }
                 }
@@ -209,13 +219,7 @@ impl Scene {
             Item::Triangle { .. } | Item::Empty => {}
             Item::Prim { shape, prim } => {
                 let record = |hits: &mut PacketHits, lane: usize, hit: PrimHit| {
-                    let rec = HitRecord {
-                        shape,
-                        prim,
-                        hit,
-                        instance: None,
-                    };
-                    hits.record(lane, rec, hit.t);
+                    hits.record_prim(lane, shape, prim, hit);
                 };
                 let shape_ref = &self.shapes[shape as usize];
                 match shape_test(shape_ref, packet, f32x8::new(hits.t_max)) {
@@ -242,7 +246,7 @@ impl Scene {
                 for lane in lanes_of(mask) {
                     let local = super::to_local_ray(&hits.ray(lane), &placed.to_world);
                     if let Some(h) = self.closest_in_group(group, &local, Some(inst)) {
-                        hits.record(lane, h, h.hit.t);
+                        hits.record(lane, h);
                     }
                 }
             }
