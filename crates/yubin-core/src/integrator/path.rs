@@ -164,10 +164,10 @@ impl Integrator for PathIntegrator {
                             let i = batch.len();
                             let queued_now =
                                 self.queue_diffuse(scene, path, &si, sides, sampler, &mut batch);
-                            if batch.len() > i {
-                                queued[i] = (lane, si.p, si.n, batch.reflectance(i));
+                            if let Some(reflectance) = queued_now {
+                                queued[i] = (lane, si.p, si.n, reflectance);
                             }
-                            queued_now
+                            queued_now.is_some()
                         }
                         None => self.scatter(scene, path, &si, sampler),
                     };
@@ -385,8 +385,9 @@ impl PathIntegrator {
     /// [`PathIntegrator::scatter`] for a vertex whose BSDF is `sides`:
     /// draws its numbers, and queues in `batch` what the wide shading
     /// computes (the BSDF sample, and the light sample when the chosen
-    /// light is a rectangle sampled by area; other light samples are
-    /// taken here). False when the path ends here.
+    /// light is a rectangle's constant area light; other light samples
+    /// are taken here). The reflectance it queued, or `None` when the
+    /// path ends here.
     #[inline]
     fn queue_diffuse(
         &self,
@@ -396,16 +397,16 @@ impl PathIntegrator {
         sides: DiffuseSides,
         sampler: &mut SampleStream,
         batch: &mut DiffuseBatch,
-    ) -> bool {
+    ) -> Option<Rgb> {
         let wo = si.to_local(si.wo);
         let draw = LightDraw::draw(sampler);
+        // `diffuse` reads only the pair; the single number is drawn all
+        // the same, so the stream's dimensions are those `scatter` draws.
         let _u1 = sampler.next_1d();
         let u_bsdf = sampler.next_2d();
         // Seen from where it reflects nothing, the light sample and the
         // BSDF sample both vanish.
-        let Some((reflectance, flip)) = sides.facing(wo) else {
-            return false;
-        };
+        let (reflectance, flip) = sides.facing(wo)?;
         let mut light = None;
         if let Some((choice, pick_pdf)) = scene.pick_light(draw.u_pick, si.p, si.n) {
             let rectangle = scene.rectangle_light(choice.emitter);
@@ -431,7 +432,7 @@ impl PathIntegrator {
             u_bsdf,
             light,
         });
-        true
+        Some(reflectance)
     }
 
     /// The rest of a queued vertex's bounce, from its wide shading: the

@@ -110,7 +110,6 @@ pub(crate) struct RectangleLight {
     mis: bool,
     /// Where the rectangle is sampled by solid angle, and what that reads.
     near: NearZone,
-    spherical: Option<RectangleFrame>,
 }
 
 impl RectangleLight {
@@ -126,7 +125,7 @@ impl RectangleLight {
         let Shape::Rectangle(r) = &shapes[a.shape as usize] else {
             return None;
         };
-        let (m, normal, inv_area, spherical) = r.sampling_data();
+        let (m, normal, inv_area) = r.area_sampling();
         Some(Self {
             x_axis: m.matrix3.x_axis.into(),
             y_axis: m.matrix3.y_axis.into(),
@@ -137,7 +136,6 @@ impl RectangleLight {
             radiance,
             mis: options.visible_indirect,
             near: r.near_zone(),
-            spherical,
         })
     }
 
@@ -145,7 +143,7 @@ impl RectangleLight {
     /// enough for that.
     #[inline]
     pub fn near_frame(&self, p: Vec3) -> Option<&RectangleFrame> {
-        self.spherical.as_ref().filter(|_| self.near.contains(p))
+        self.near.frame_at(p)
     }
 }
 
@@ -250,16 +248,6 @@ impl DiffuseBatch {
     pub fn clear(&mut self) {
         self.len = 0;
         self.near = 0;
-    }
-
-    /// The reflectance of lane `i`.
-    #[inline]
-    pub fn reflectance(&self, i: usize) -> Rgb {
-        Vec3::new(
-            self.reflectance[0][i],
-            self.reflectance[1][i],
-            self.reflectance[2][i],
-        )
     }
 
     /// Adds a lane.

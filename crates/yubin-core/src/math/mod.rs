@@ -183,10 +183,10 @@ pub(crate) const PIO2_LO: f32 = 1.080_433_4e-5;
 /// instruction, and `round_ties_even` would call libm).
 pub(crate) const ROUND_TO_INTEGER: f32 = 12_582_912.0;
 
-/// sin a and cos a for |a| below about 10⁵, without a libm call, by the
-/// quadrant: a = kπ/2 + r with |r| ≤ π/4, then [`sin_cos_quarter`] of r
-/// turned by k quarter turns; within 3·10⁻⁷ of the exact values on
-/// [−2π, 2π] (`sin_cos_is_accurate`). Plain arithmetic and selects, so
+/// sin a and cos a for |a| up to about 200 (where k·[`PIO2_HI`] stays
+/// exact), without a libm call, by the quadrant: a = kπ/2 + r with
+/// |r| ≤ π/4, then [`sin_cos_quarter`] of r turned by k quarter turns;
+/// within 3·10⁻⁷ of the exact values on [−2π, 2π] (`sin_cos_is_accurate`). Plain arithmetic and selects, so
 /// eight lanes at a time give the same values bit for bit (the path
 /// tracer's wide light sampling).
 #[inline]

@@ -62,21 +62,30 @@ struct Geometry {
     spherical: Option<RectangleFrame>,
 }
 
+/// Whether `p` is near enough to a rectangle of area `area` around
+/// `center` to sample it by the solid angle it subtends (about as near as
+/// it is large; see [`NEAR_AREA_PER_DISTANCE2`]).
+#[inline]
+fn is_near(center: Vec3, area: f32, p: Vec3) -> bool {
+    area >= NEAR_AREA_PER_DISTANCE2 * center.distance_squared(p)
+}
+
 /// The points from which a rectangle is sampled by the solid angle it
-/// subtends ([`ShapeModel::sample_direction`]): those about as near as
-/// it is large, if it is square-cornered; by area from the others.
+/// subtends ([`ShapeModel::sample_direction`]), and its frame for that;
+/// by area from the others, and from every point when it is not
+/// square-cornered.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct NearZone {
     center: Vec3,
     area: f32,
-    spherical: bool,
+    frame: Option<RectangleFrame>,
 }
 
 impl NearZone {
-    /// Whether `p` is sampled by solid angle.
+    /// The frame for spherical sampling from `p`, where that applies.
     #[inline]
-    pub fn contains(&self, p: Vec3) -> bool {
-        self.spherical && self.area >= NEAR_AREA_PER_DISTANCE2 * self.center.distance_squared(p)
+    pub fn frame_at(&self, p: Vec3) -> Option<&RectangleFrame> {
+        (self.frame.as_ref()).filter(|_| is_near(self.center, self.area, p))
     }
 }
 
@@ -123,8 +132,9 @@ impl Rectangle {
     /// enough for that to pay and the rectangle is square-cornered.
     #[inline]
     fn near_frame(&self, p: Vec3) -> Option<&RectangleFrame> {
-        let near = self.near_zone().contains(p);
-        self.geometry.spherical.as_ref().filter(|_| near)
+        let g = &self.geometry;
+        let near = is_near(g.center, g.area, p);
+        g.spherical.as_ref().filter(|_| near)
     }
 
     /// Where the rectangle is sampled by solid angle.
@@ -134,16 +144,15 @@ impl Rectangle {
         NearZone {
             center: g.center,
             area: g.area,
-            spherical: g.spherical.is_some(),
+            frame: g.spherical,
         }
     }
 
     /// The rectangle's placement, normal and density per area, which its
-    /// area sampling reads, and its frame for spherical sampling (for
-    /// eight light samples at once: the path tracer's wide shading).
-    pub(crate) fn sampling_data(&self) -> (&glam::Affine3A, Vec3, f32, Option<RectangleFrame>) {
-        let g = &self.geometry;
-        (&self.to_world.m, self.normal(), g.inv_area, g.spherical)
+    /// area sampling reads (for eight light samples at once: the path
+    /// tracer's wide shading).
+    pub(crate) fn area_sampling(&self) -> (&glam::Affine3A, Vec3, f32) {
+        (&self.to_world.m, self.normal(), self.geometry.inv_area)
     }
 
     /// The rectangle as seen from `p`, where spherical sampling applies.
