@@ -5,9 +5,13 @@
 //! (by area, or uniformly in the solid angle the rectangle subtends from
 //! points near it), its density and direction, the BSDF's value and
 //! density there, the MIS weight and the BSDF sample of the next
-//! direction are computed in eight lanes (`wide::f32x8`) instead of one
-//! vertex after another, each a chain of dependent square roots and
-//! divisions.
+//! direction are computed in eight lanes instead of one vertex after
+//! another, each a chain of dependent square roots and divisions. The
+//! lanes are `fearless_simd`'s, the kernels compiled for each SIMD level
+//! and chosen by the CPU at run time: one AVX register for the eight where
+//! it has AVX2, two SSE registers on other x86-64 (`wide`, used elsewhere,
+//! picks its form when the crate is built, so it would stay in SSE halves
+//! in a portable build).
 //!
 //! Every lane does the operations the scalar code does, in the same
 //! order, so a path comes out the same bit for bit whether it was shaded
@@ -33,9 +37,12 @@ use crate::sampling::{
 use crate::shape::{NearZone, Shape};
 use crate::texture::Tex;
 use crate::Rgb;
+use fearless_simd::{
+    dispatch, f32x8, f64x8, mask32x8, mask64x8, Level, Select, Simd, SimdBase, SimdFloat, SimdFrom,
+    SimdMask,
+};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_2_PI, FRAC_PI_2, FRAC_PI_4, PI};
-use wide::{f32x8, f64x4, i32x8, CmpEq, CmpGe, CmpGt, CmpLe};
 
 /// Lanes of a batch.
 pub(crate) const LANES: usize = 8;
@@ -218,23 +225,46 @@ const FRAME_VALUES: usize = 22;
 /// the eight-lane sampling costs about as much as that many single ones.
 const FEW_NEAR: u32 = 2;
 
-/// A 3-vector in eight lanes.
-type V3 = [f32x8; 3];
+/// Eight lanes of `f32`, and their masks, for the SIMD level `S`.
+type F8<S> = f32x8<S>;
+type M8<S> = mask32x8<S>;
 
-#[inline]
-fn dot(a: &V3, b: &V3) -> f32x8 {
+/// A 3-vector in eight lanes.
+type V3<S> = [F8<S>; 3];
+
+#[inline(always)]
+fn dot<S: Simd>(a: &V3<S>, b: &V3<S>) -> F8<S> {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-#[inline]
-fn lanes<const N: usize>(a: &[[f32; LANES]; N]) -> [f32x8; N] {
-    a.map(f32x8::new)
+#[inline(always)]
+fn lanes<S: Simd, const N: usize>(simd: S, a: &[[f32; LANES]; N]) -> [F8<S>; N] {
+    a.map(|v| F8::simd_from(simd, v))
+}
+
+/// The lanes of `a` that hold 1 (the others hold 0).
+#[inline(always)]
+fn ones<S: Simd>(simd: S, a: &[f32; LANES]) -> M8<S> {
+    F8::simd_from(simd, *a).simd_eq(1.0)
 }
 
 /// Where `mask` holds, `a`, else `b`.
-#[inline]
-fn select(mask: f32x8, a: f32x8, b: f32x8) -> f32x8 {
-    mask.blend(a, b)
+#[inline(always)]
+fn select<S: Simd>(mask: M8<S>, a: F8<S>, b: F8<S>) -> F8<S> {
+    mask.select(a, b)
+}
+
+/// `a < b ? b : a`, and `a` where `b` is NaN (as the scalar code's
+/// `f32::max` takes it: the lanes are that bit for bit).
+#[inline(always)]
+fn max<S: Simd>(a: F8<S>, b: F8<S>) -> F8<S> {
+    a.max_precise(b)
+}
+
+/// `a > b ? b : a`, and `a` where `b` is NaN (see [`max`]).
+#[inline(always)]
+fn min<S: Simd>(a: F8<S>, b: F8<S>) -> F8<S> {
+    a.min_precise(b)
 }
 
 impl DiffuseBatch {
@@ -249,7 +279,6 @@ impl DiffuseBatch {
         self.len = 0;
         self.near = 0;
     }
-
     /// Adds a lane.
     #[inline]
     pub fn push(&mut self, v: &DiffuseVertex<'_>) {
@@ -296,25 +325,40 @@ impl DiffuseBatch {
         }
     }
 
-    /// Shades every lane (`out[i]` for the i-th pushed).
+    /// Shades every lane (`out[i]` for the i-th pushed), in AVX registers
+    /// where the CPU has AVX2.
     pub fn shade(&self, out: &mut [DiffuseShading; LANES]) {
-        shade_dispatch(self, out)
+        self.shade_at(Level::new(), out);
+    }
+
+    /// [`DiffuseBatch::shade`] with the SIMD level `level` (or a lower
+    /// one): in AVX registers at AVX2 and above, in SSE halves on other
+    /// x86-64, lane by lane elsewhere; the same values bit for bit.
+    pub(crate) fn shade_at(&self, level: Level, out: &mut [DiffuseShading; LANES]) {
+        #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+        if let Some(avx2) = level.as_avx2() {
+            return avx2.vectorize(
+                #[inline(always)]
+                || self.shade_lanes(avx2, out),
+            );
+        }
+        dispatch!(level, simd => self.shade_lanes(simd, out))
     }
 
     #[inline(always)]
-    fn shade_lanes(&self, out: &mut [DiffuseShading; LANES]) {
-        let frame = lanes(&self.frame);
+    fn shade_lanes<S: Simd>(&self, simd: S, out: &mut [DiffuseShading; LANES]) {
+        let frame = lanes(simd, &self.frame);
         let s = [frame[0], frame[1], frame[2]];
         let t = [frame[3], frame[4], frame[5]];
         let n = [frame[6], frame[7], frame[8]];
-        let p = lanes(&self.p);
-        let flip = f32x8::new(self.flip);
+        let p = lanes(simd, &self.p);
+        let flip = F8::simd_from(simd, self.flip);
         let light = if self.has_light[..self.len].contains(&1.0) {
-            self.light_samples(&p, &n, flip)
+            self.light_samples(simd, &p, &n, flip)
         } else {
             [None; LANES]
         };
-        let bsdf = self.bsdf_samples(&s, &t, &n, flip);
+        let bsdf = self.bsdf_samples(simd, &s, &t, &n, flip);
         for (i, o) in out.iter_mut().enumerate().take(self.len) {
             o.light = light[i];
             o.bsdf = bsdf[i];
@@ -322,84 +366,71 @@ impl DiffuseBatch {
     }
 
     /// The light samples, evaluated and weighed (as `sample_light`).
-    #[inline]
-    fn light_samples(&self, p: &V3, n: &V3, flip: f32x8) -> [Option<UnshadowedLight>; LANES] {
-        let zero = f32x8::ZERO;
-        let one = f32x8::ONE;
-        let axes = lanes(&self.light_axes);
-        let u = lanes(&self.u_light);
+    #[inline(always)]
+    fn light_samples<S: Simd>(
+        &self,
+        simd: S,
+        p: &V3<S>,
+        n: &V3<S>,
+        flip: F8<S>,
+    ) -> [Option<UnshadowedLight>; LANES] {
+        let c = |v: f32| F8::splat(simd, v);
+        let (zero, one) = (c(0.0), c(1.0));
+        let axes = lanes(simd, &self.light_axes);
+        let u = lanes(simd, &self.u_light);
         // The rectangle's area sample: the unit square's point
         // 2u − 1 placed by the rectangle's transform.
-        let (lx, ly) = (
-            f32x8::splat(2.0) * u[0] - one,
-            f32x8::splat(2.0) * u[1] - one,
-        );
-        let q: V3 = std::array::from_fn(|a| {
+        let (lx, ly) = (c(2.0) * u[0] - one, c(2.0) * u[1] - one);
+        let q: V3<S> = std::array::from_fn(|a| {
             axes[a] * lx + axes[3 + a] * ly + axes[6 + a] * zero + axes[9 + a]
         });
-        let ln = lanes(&self.light_normal);
+        let ln = lanes(simd, &self.light_normal);
         // Its density per solid angle (`area_to_solid_angle`).
-        let d: V3 = std::array::from_fn(|a| q[a] - p[a]);
+        let d: V3<S> = std::array::from_fn(|a| q[a] - p[a]);
         let dist2 = dot(&d, &d);
         let dist = dist2.sqrt();
         let n_dot_d = dot(&ln, &d).abs();
-        let inv_area = f32x8::new(self.inv_area);
-        let degenerate = n_dot_d.cmp_le(f32x8::splat(1e-7) * dist) | dist2.cmp_eq(zero);
+        let inv_area = F8::simd_from(simd, self.inv_area);
+        let degenerate = n_dot_d.simd_le(c(1e-7) * dist) | dist2.simd_eq(zero);
         let pdf = select(degenerate, zero, inv_area * dist2 * dist / n_dot_d);
         // Nearer lanes sample the solid angle where it is in range.
         let (q, pdf) = match self.near.count_ones() {
             0 => (q, pdf),
-            1..=FEW_NEAR => self.few_spherical_samples(p, &u, q, pdf),
+            1..=FEW_NEAR => self.few_spherical_samples(simd, p, &u, q, pdf),
             _ => {
-                let (q_near, pdf_near, in_range) = self.spherical_samples(p, &u);
-                let near = f32x8::new(std::array::from_fn(|i| {
-                    if self.near >> i & 1 != 0 {
-                        1.0
-                    } else {
-                        0.0
-                    }
-                }));
-                let near = near.cmp_eq(one) & in_range;
+                let (q_near, pdf_near, in_range) = self.spherical_samples(simd, p, &u);
+                let near = M8::from_bitmask(simd, u64::from(self.near)) & in_range;
                 (
                     std::array::from_fn(|a| select(near, q_near[a], q[a])),
                     select(near, pdf_near, pdf),
                 )
             }
         };
-        let d: V3 = std::array::from_fn(|a| q[a] - p[a]);
+        let d: V3<S> = std::array::from_fn(|a| q[a] - p[a]);
         let dist = dot(&d, &d).sqrt();
         // The area light's checks and direction (`emitted_towards`).
-        let bad_pdf = pdf.is_nan() | pdf.cmp_le(zero) | !pdf.is_finite();
+        let bad_pdf = pdf.is_nan() | pdf.simd_le(zero) | !pdf.is_finite();
         let inv_dist = one / dist;
-        let wi: V3 = std::array::from_fn(|a| d[a] * inv_dist);
-        let behind = dot(&ln, &wi).cmp_ge(zero);
-        let valid =
-            f32x8::new(self.has_light).cmp_eq(one) & !bad_pdf & !dist.cmp_eq(zero) & !behind;
+        let wi: V3<S> = std::array::from_fn(|a| d[a] * inv_dist);
+        let behind = dot(&ln, &wi).simd_ge(zero);
+        let valid = ones(simd, &self.has_light) & !bad_pdf & !dist.simd_eq(zero) & !behind;
         // The BSDF there (`diffuse` seen through `twosided`), which reads
         // only the shading frame's z of the direction.
         let wi_z = flip * dot(&wi, n);
-        let lit = !wi_z.cmp_le(zero);
-        let cos_over_pi = f32x8::splat(FRAC_1_PI) * wi_z;
-        let r = lanes(&self.reflectance);
-        let le = lanes(&self.radiance);
-        let f_le: V3 = std::array::from_fn(|a| select(lit, r[a] * cos_over_pi, zero) * le[a]);
-        let f_nonzero = !(select(lit, r[0] * cos_over_pi, zero).cmp_eq(zero)
-            & select(lit, r[1] * cos_over_pi, zero).cmp_eq(zero)
-            & select(lit, r[2] * cos_over_pi, zero).cmp_eq(zero));
-        let mis = f32x8::new(self.mis).cmp_eq(one);
-        let bsdf_pdf = select(lit & mis, wi_z.max(zero) * f32x8::splat(FRAC_1_PI), zero);
-        let light_pdf = pdf * f32x8::new(self.pick_pdf);
-        let w = select(mis, power_heuristic(light_pdf * one, bsdf_pdf), one);
-        let keep = (valid & f_nonzero).to_array();
-        let (f_le, w, light_pdf, wi, dist) = (
-            f_le.map(|c| c.to_array()),
-            w.to_array(),
-            light_pdf.to_array(),
-            wi.map(|c| c.to_array()),
-            dist.to_array(),
-        );
+        let lit = !wi_z.simd_le(zero);
+        let cos_over_pi = c(FRAC_1_PI) * wi_z;
+        let r = lanes(simd, &self.reflectance);
+        let le = lanes(simd, &self.radiance);
+        let f: V3<S> = std::array::from_fn(|a| select(lit, r[a] * cos_over_pi, zero));
+        let f_le: V3<S> = std::array::from_fn(|a| f[a] * le[a]);
+        let f_nonzero = !(f[0].simd_eq(zero) & f[1].simd_eq(zero) & f[2].simd_eq(zero));
+        let mis = ones(simd, &self.mis);
+        let bsdf_pdf = select(lit & mis, max(wi_z, zero) * c(FRAC_1_PI), zero);
+        let light_pdf = pdf * F8::simd_from(simd, self.pick_pdf);
+        let w = select(mis, power_heuristic(simd, light_pdf * one, bsdf_pdf), one);
+        let keep = (valid & f_nonzero).to_bitmask();
         std::array::from_fn(|i| {
-            (keep[i] != 0.0).then(|| UnshadowedLight {
+            (keep >> i & 1 != 0).then(|| UnshadowedLight {
                 f_le: Vec3::new(f_le[0][i], f_le[1][i], f_le[2][i]),
                 w: w[i],
                 pdf: light_pdf[i],
@@ -413,10 +444,16 @@ impl DiffuseBatch {
     /// the few lanes sampled by solid angle replaced lane by lane
     /// ([`SphericalRectangle`], whose values [`Self::spherical_samples`]
     /// gives in lanes), where their solid angle is in range.
-    #[inline]
-    fn few_spherical_samples(&self, o: &V3, u: &[f32x8; 2], q: V3, pdf: f32x8) -> (V3, f32x8) {
-        let (mut q, mut pdf) = (q.map(|c| c.to_array()), pdf.to_array());
-        let (o, u) = (o.map(|c| c.to_array()), u.map(|c| c.to_array()));
+    #[inline(always)]
+    fn few_spherical_samples<S: Simd>(
+        &self,
+        simd: S,
+        o: &V3<S>,
+        u: &[F8<S>; 2],
+        q: V3<S>,
+        pdf: F8<S>,
+    ) -> (V3<S>, F8<S>) {
+        let (mut q, mut pdf) = (q.map(|c| *c), *pdf);
         for i in (0..LANES).filter(|i| self.near >> i & 1 != 0) {
             let f = |k: usize| self.frames[k][i];
             let v = |k: usize| Vec3::new(f(3 * k), f(3 * k + 1), f(3 * k + 2));
@@ -441,7 +478,7 @@ impl DiffuseBatch {
                 pdf[i] = 1.0 / sr.solid_angle();
             }
         }
-        (q.map(f32x8::new), f32x8::new(pdf))
+        (q.map(|c| F8::simd_from(simd, c)), F8::simd_from(simd, pdf))
     }
 
     /// Points sampled uniformly in the solid angle the lanes' rectangles
@@ -449,21 +486,27 @@ impl DiffuseBatch {
     /// density, and where the solid angle is in the range that sampling
     /// takes.
     #[inline(always)]
-    fn spherical_samples(&self, o: &V3, u: &[f32x8; 2]) -> (V3, f32x8, f32x8) {
-        let c = f32x8::splat;
-        let f = lanes(&self.frames);
+    fn spherical_samples<S: Simd>(
+        &self,
+        simd: S,
+        o: &V3<S>,
+        u: &[F8<S>; 2],
+    ) -> (V3<S>, F8<S>, M8<S>) {
+        let c = |v: f32| F8::splat(simd, v);
+        let one = c(1.0);
+        let f = lanes(simd, &self.frames);
         let vec = |k: usize| [f[3 * k], f[3 * k + 1], f[3 * k + 2]];
         let (corner, ex, ey) = (vec(0), vec(1), vec(2));
         let (x, y, z) = (vec(3), vec(4), vec(5));
         let (w, l, inv_w, inv_l) = (f[18], f[19], f[20], f[21]);
         // The rectangle in the frame at o (`LocalFrame`).
-        let d: V3 = std::array::from_fn(|a| corner[a] - o[a]);
+        let d: V3<S> = std::array::from_fn(|a| corner[a] - o[a]);
         let (x0, y0) = (dot(&d, &x), dot(&d, &y));
         let (x1, y1) = (x0 + w, y0 + l);
         let h = dot(&d, &z).abs();
         // Its corners' distances (`Corners`).
-        let z0 = negate(h);
-        let length = |x: f32x8, y: f32x8| (x * x + y * y + z0 * z0).sqrt();
+        let z0 = -h;
+        let length = |x: F8<S>, y: F8<S>| (x * x + y * y + z0 * z0).sqrt();
         let len = [
             length(x0, y0),
             length(x1, y0),
@@ -471,102 +514,91 @@ impl DiffuseBatch {
             length(x0, y1),
         ];
         let corners = [[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]];
-        let solid_angle = solid_angle(&corners, &len);
-        let in_range = solid_angle.cmp_ge(c(SPHERICAL_MIN_SOLID_ANGLE))
-            & solid_angle.cmp_le(c(SPHERICAL_MAX_SOLID_ANGLE));
+        let solid_angle = solid_angle(simd, &corners, &len);
+        let in_range = solid_angle.simd_ge(c(SPHERICAL_MIN_SOLID_ANGLE))
+            & solid_angle.simd_le(c(SPHERICAL_MAX_SOLID_ANGLE));
         // `SphericalRectangle::new`.
         let h2 = h * h;
         let (c2, s2) = (x0 * y1, h * len[3]);
-        let (c3, s3) = (negate(x0) * y0, h * len[0]);
-        let b0 = negate(y0) / (h2 + y0 * y0).sqrt();
+        let (c3, s3) = (-x0 * y0, h * len[0]);
+        let b0 = -y0 / (h2 + y0 * y0).sqrt();
         let b1 = y1 / (h2 + y1 * y1).sqrt();
-        let norm = f32x8::ONE / ((c2 * c2 + s2 * s2) * (c3 * c3 + s3 * s3)).sqrt();
+        let norm = one / ((c2 * c2 + s2 * s2) * (c3 * c3 + s3 * s3)).sqrt();
         let cos_g = (c2 * c3 - s2 * s3) * norm;
         let sin_g = (s2 * c3 + c2 * s3) * norm;
         // `SphericalRectangle::sample`.
-        let (sin_us, cos_us) = sin_cos(u[0] * solid_angle);
+        let (sin_us, cos_us) = sin_cos(simd, u[0] * solid_angle);
         let sin_au = sin_us * cos_g - cos_us * sin_g;
         let cos_au = cos_us * cos_g + sin_us * sin_g;
         let fu = (cos_au * b0 - b1) / sin_au;
         let f2 = fu * fu + b0 * b0;
-        let xu = h.copysign(fu) / (f2 - f32x8::ONE).max(c(1e-12)).sqrt();
-        let xu = xu.max(x0).min(x1);
+        let xu = h.copysign(fu) / max(f2 - one, c(1e-12)).sqrt();
+        let xu = min(max(xu, x0), x1);
         let dist2 = xu * xu + h2;
         let h0 = y0 / (dist2 + y0 * y0).sqrt();
         let h1 = y1 / (dist2 + y1 * y1).sqrt();
         let hv = h0 + u[1] * (h1 - h0);
-        let yv = hv * (dist2 / (f32x8::ONE - hv * hv).max(c(1e-12))).sqrt();
-        let yv = yv.max(y0).min(y1);
-        let clamp = |v: f32x8| v.max(f32x8::ZERO).min(f32x8::ONE);
+        let yv = hv * (dist2 / max(one - hv * hv, c(1e-12))).sqrt();
+        let yv = min(max(yv, y0), y1);
+        let clamp = |v: F8<S>| min(max(v, c(0.0)), one);
         let (ux, uy) = (clamp((xu - x0) * inv_w), clamp((yv - y0) * inv_l));
         let q = std::array::from_fn(|a| corner[a] + ux * ex[a] + uy * ey[a]);
-        (q, f32x8::ONE / solid_angle, in_range)
+        (q, one / solid_angle, in_range)
     }
 
     /// The BSDF samples: cosine-weighted directions, mirrored to the side
     /// the lane sees, in world space.
-    #[inline]
-    fn bsdf_samples(&self, s: &V3, t: &V3, n: &V3, flip: f32x8) -> [Option<(Vec3, f32)>; LANES] {
-        let zero = f32x8::ZERO;
-        let one = f32x8::ONE;
-        let u = lanes(&self.u_bsdf);
+    #[inline(always)]
+    fn bsdf_samples<S: Simd>(
+        &self,
+        simd: S,
+        s: &V3<S>,
+        t: &V3<S>,
+        n: &V3<S>,
+        flip: F8<S>,
+    ) -> [Option<(Vec3, f32)>; LANES] {
+        let c = |v: f32| F8::splat(simd, v);
+        let (zero, one) = (c(0.0), c(1.0));
+        let u = lanes(simd, &self.u_bsdf);
         // The concentric map (`concentric_with_radius`).
-        let (ox, oy) = (
-            f32x8::splat(2.0) * u[0] - one,
-            f32x8::splat(2.0) * u[1] - one,
-        );
-        let centre = ox.cmp_eq(zero) & oy.cmp_eq(zero);
-        let around_x = ox.abs().cmp_gt(oy.abs());
+        let (ox, oy) = (c(2.0) * u[0] - one, c(2.0) * u[1] - one);
+        let centre = ox.simd_eq(zero) & oy.simd_eq(zero);
+        let around_x = ox.abs().simd_gt(oy.abs());
         let r = select(around_x, ox, oy);
         let across = select(around_x, oy, ox);
-        let (sin, cos) = sin_cos_quarter(f32x8::splat(FRAC_PI_4) * (across / r));
-        let (c, sn) = (select(around_x, cos, sin), select(around_x, sin, cos));
-        let (dx, dy) = (select(centre, zero, r * c), select(centre, zero, r * sn));
+        let (sin, cos) = sin_cos_quarter(simd, c(FRAC_PI_4) * (across / r));
+        let (cs, sn) = (select(around_x, cos, sin), select(around_x, sin, cos));
+        let (dx, dy) = (select(centre, zero, r * cs), select(centre, zero, r * sn));
         let r = select(centre, zero, r);
-        let z = (one - r * r).max(zero).sqrt();
-        let pdf = z.max(zero) * f32x8::splat(FRAC_1_PI);
+        let z = max(one - r * r, zero).sqrt();
+        let pdf = max(z, zero) * c(FRAC_1_PI);
         let z = flip * z;
-        let wi: V3 = std::array::from_fn(|a| s[a] * dx + t[a] * dy + n[a] * z);
-        let ok = pdf.cmp_gt(zero).to_array();
-        let (wi, pdf) = (wi.map(|c| c.to_array()), pdf.to_array());
+        let wi: V3<S> = std::array::from_fn(|a| s[a] * dx + t[a] * dy + n[a] * z);
+        let ok = pdf.simd_gt(zero).to_bitmask();
         std::array::from_fn(|i| {
-            (ok[i] != 0.0).then(|| (Vec3::new(wi[0][i], wi[1][i], wi[2][i]), pdf[i]))
+            (ok >> i & 1 != 0).then(|| (Vec3::new(wi[0][i], wi[1][i], wi[2][i]), pdf[i]))
         })
     }
 }
 
-/// [`DiffuseBatch::shade`], compiled for baseline x86-64 and for AVX2
-/// (three-operand instructions; products and sums stay unfused, so the
-/// same values bit for bit) and chosen by the CPU at run time.
-#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
-fn shade_dispatch(batch: &DiffuseBatch, out: &mut [DiffuseShading; LANES]) {
-    batch.shade_lanes(out)
-}
-
 /// [`crate::sampling::power_heuristic`] lane by lane.
-#[inline]
-fn power_heuristic(pdf_a: f32x8, pdf_b: f32x8) -> f32x8 {
+#[inline(always)]
+fn power_heuristic<S: Simd>(simd: S, pdf_a: F8<S>, pdf_b: F8<S>) -> F8<S> {
     let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
-    let zero = f32x8::ZERO;
+    let zero = F8::splat(simd, 0.0);
     select(
-        a.cmp_eq(zero),
+        a.simd_eq(zero),
         zero,
-        select(a.is_inf(), f32x8::ONE, a / (a + b)),
+        select(a.is_infinite(), F8::splat(simd, 1.0), a / (a + b)),
     )
-}
-
-/// −v, by its sign bit (as `-v` is; 0 − v would turn −0 into +0).
-#[inline]
-fn negate(v: f32x8) -> f32x8 {
-    v ^ f32x8::splat(-0.0)
 }
 
 /// The solid angle of the rectangle with corners `v` (distances `len`)
 /// seen from the origin, as `Corners::solid_angle`: the two triangles'
 /// Van Oosterom–Strackee half-angles summed as a product of complex
 /// numbers in f64, and one arctangent.
-#[inline]
-fn solid_angle(v: &[V3; 4], len: &[f32x8; 4]) -> f32x8 {
+#[inline(always)]
+fn solid_angle<S: Simd>(simd: S, v: &[V3<S>; 4], len: &[F8<S>; 4]) -> F8<S> {
     let triple = v[0][2].abs() * (v[2][0] - v[0][0]) * (v[2][1] - v[0][1]);
     let den = |a: usize, b: usize, c: usize| {
         len[a] * len[b] * len[c]
@@ -574,81 +606,70 @@ fn solid_angle(v: &[V3; 4], len: &[f32x8; 4]) -> f32x8 {
             + dot(&v[a], &v[c]) * len[b]
             + dot(&v[b], &v[c]) * len[a]
     };
-    let (t, d0, d1) = (
-        triple.to_array(),
-        den(0, 1, 2).to_array(),
-        den(0, 2, 3).to_array(),
+    let f64s = |v: F8<S>| f64x8::simd_from(simd, (*v).map(f64::from));
+    let (t, d0, d1) = (f64s(triple), f64s(den(0, 1, 2)), f64s(den(0, 2, 3)));
+    // `atan2_f64`'s ratio and octant.
+    let (y, x) = (t * (d0 + d1), d0 * d1 - t * t);
+    let (ax, ay) = (x.abs(), y.abs());
+    let steep = ay.simd_gt(ax);
+    let (lo, hi) = (steep.select(ax, ay), steep.select(ay, ax));
+    let ratio = hi.simd_gt(0.0).select(lo / hi, f64x8::splat(simd, 0.0));
+    let (steep, x_negative, y_negative) = (
+        narrow(simd, steep),
+        narrow(simd, x.simd_lt(0.0)),
+        narrow(simd, y.simd_lt(0.0)),
     );
-    let mut ratio = [0.0f32; LANES];
-    let mut steep = [0.0f32; LANES];
-    let mut x_negative = [0.0f32; LANES];
-    let mut y_negative = [0.0f32; LANES];
-    for half in 0..2 {
-        let f64s =
-            |v: &[f32; LANES]| f64x4::new(std::array::from_fn(|i| f64::from(v[4 * half + i])));
-        let (t, d0, d1) = (f64s(&t), f64s(&d0), f64s(&d1));
-        // `atan2_f64`'s ratio and octant.
-        let (y, x) = (t * (d0 + d1), d0 * d1 - t * t);
-        let (ax, ay) = (x.abs(), y.abs());
-        let is_steep = ay.cmp_gt(ax);
-        let (lo, hi) = (is_steep.blend(ax, ay), is_steep.blend(ay, ax));
-        let r = (lo / hi).to_array();
-        let (hi, is_steep) = (hi.to_array(), is_steep.to_array());
-        let (x, y) = (x.to_array(), y.to_array());
-        for i in 0..4 {
-            let lane = 4 * half + i;
-            ratio[lane] = if hi[i] > 0.0 { r[i] as f32 } else { 0.0 };
-            steep[lane] = if is_steep[i] != 0.0 { 1.0 } else { 0.0 };
-            x_negative[lane] = if x[i] < 0.0 { 1.0 } else { 0.0 };
-            y_negative[lane] = if y[i] < 0.0 { 1.0 } else { 0.0 };
-        }
-    }
-    let one = f32x8::ONE;
-    let r = atan_unit(f32x8::new(ratio));
-    let r = f32x8::new(steep)
-        .cmp_eq(one)
-        .blend(f32x8::splat(FRAC_PI_2) - r, r);
-    let r = f32x8::new(x_negative)
-        .cmp_eq(one)
-        .blend(f32x8::splat(PI) - r, r);
-    let r = f32x8::new(y_negative).cmp_eq(one).blend(negate(r), r);
-    f32x8::splat(2.0) * r
+    let r = atan_unit(simd, F8::simd_from(simd, (*ratio).map(|v| v as f32)));
+    let r = steep.select(F8::splat(simd, FRAC_PI_2) - r, r);
+    let r = x_negative.select(F8::splat(simd, PI) - r, r);
+    let r = y_negative.select(-r, r);
+    F8::splat(simd, 2.0) * r
+}
+
+/// The f32 lanes' mask of an f64 lanes' mask.
+#[inline(always)]
+fn narrow<S: Simd>(simd: S, m: mask64x8<S>) -> M8<S> {
+    M8::from_bitmask(simd, m.to_bitmask())
 }
 
 /// `atan_unit` (atan on [0, 1]) lane by lane.
-#[inline]
-fn atan_unit(a: f32x8) -> f32x8 {
-    let c = f32x8::splat;
-    let reduce = a.cmp_gt(c(TAN_PI_8));
-    let t = reduce.blend((a - f32x8::ONE) / (a + f32x8::ONE), a);
+#[inline(always)]
+fn atan_unit<S: Simd>(simd: S, a: F8<S>) -> F8<S> {
+    let c = |v: f32| F8::splat(simd, v);
+    let reduce = a.simd_gt(c(TAN_PI_8));
+    let t = reduce.select((a - c(1.0)) / (a + c(1.0)), a);
     let z = t * t;
     let [a0, a1, a2, a3] = ATAN_UNIT.map(c);
     let p = (((a0 * z - a1) * z + a2) * z - a3) * z * t + t;
-    reduce.blend(c(FRAC_PI_4) + p, p)
+    reduce.select(c(FRAC_PI_4) + p, p)
 }
 
 /// [`crate::math::sin_cos`] lane by lane.
-#[inline]
-fn sin_cos(a: f32x8) -> (f32x8, f32x8) {
-    let c = f32x8::splat;
+#[inline(always)]
+fn sin_cos<S: Simd>(simd: S, a: F8<S>) -> (F8<S>, F8<S>) {
+    let c = |v: f32| F8::splat(simd, v);
     let k = (a * c(FRAC_2_PI) + c(ROUND_TO_INTEGER)) - c(ROUND_TO_INTEGER);
-    let (s, co) = sin_cos_quarter((a - k * c(PIO2_HI)) - k * c(PIO2_LO));
-    let quadrant = k.round_int() & i32x8::splat(3);
-    let is = |q: i32| -> f32x8 { bytemuck::cast(quadrant.cmp_eq(i32x8::splat(q))) };
-    let (q1, q2, q3) = (is(1), is(2), is(3));
-    let sin = q1.blend(co, q2.blend(negate(s), q3.blend(negate(co), s)));
-    let cos = q1.blend(negate(s), q2.blend(negate(co), q3.blend(s, co)));
+    let (s, co) = sin_cos_quarter(simd, (a - k * c(PIO2_HI)) - k * c(PIO2_LO));
+    // k mod 4 (k a whole number): k − 4·round(k/4) is −2 … 2.
+    let q = k - c(4.0) * ((k * c(0.25) + c(ROUND_TO_INTEGER)) - c(ROUND_TO_INTEGER));
+    let (q1, q2, q3) = (
+        q.simd_eq(1.0),
+        q.simd_eq(2.0) | q.simd_eq(-2.0),
+        q.simd_eq(-1.0),
+    );
+    let sin = q1.select(co, q2.select(-s, q3.select(-co, s)));
+    let cos = q1.select(-s, q2.select(-co, q3.select(s, co)));
     (sin, cos)
 }
 
 /// [`crate::math::sin_cos_quarter`] lane by lane.
-#[inline]
-fn sin_cos_quarter(a: f32x8) -> (f32x8, f32x8) {
-    let c = f32x8::splat;
+#[inline(always)]
+fn sin_cos_quarter<S: Simd>(simd: S, a: F8<S>) -> (F8<S>, F8<S>) {
+    let c = |v: f32| F8::splat(simd, v);
     let z = a * a;
     let ([s0, s1, s2], [c0, c1, c2]) = (SIN_QUARTER.map(c), COS_QUARTER.map(c));
     let sin = ((s0 * z + s1) * z - s2) * z * a + a;
-    let cos = ((c0 * z - c1) * z + c2) * z * z - c(0.5) * z + f32x8::ONE;
+    let cos = ((c0 * z - c1) * z + c2) * z * z - c(0.5) * z + c(1.0);
     (sin, cos)
 }
 
@@ -672,10 +693,25 @@ mod tests {
         b.build().unwrap()
     }
 
+    /// A lane's shading as bits (`None`s as empty).
+    fn shading_bits(o: &DiffuseShading) -> Vec<u32> {
+        let light = o.light.iter().flat_map(|l| {
+            let [x, y, z] = l.wi.to_array();
+            let [r, g, b] = l.f_le.to_array();
+            [x, y, z, l.dist, l.pdf, l.w, r, g, b]
+        });
+        let bsdf = o.bsdf.iter().flat_map(|(wi, pdf)| {
+            let [x, y, z] = wi.to_array();
+            [x, y, z, *pdf]
+        });
+        light.chain(bsdf).map(f32::to_bits).collect()
+    }
+
     /// Eight lanes' light samples are the scalar light samples bit for
     /// bit, by area and by solid angle, near lights and far, for lights
     /// square and sheared, with a frame facing the light (so that the
-    /// diffuse BSDF keeps every sample the light gives).
+    /// diffuse BSDF keeps every sample the light gives), and the same at
+    /// every SIMD level.
     #[test]
     fn wide_light_samples_equal_single_ones() {
         let lights = [
@@ -723,9 +759,13 @@ mod tests {
                     });
                     cases.push((p, u));
                 }
-                let mut out = [DiffuseShading::default(); LANES];
-                batch.shade(&mut out);
-                for ((p, u), o) in cases.into_iter().zip(out) {
+                // Every SIMD level this CPU runs: SSE halves and AVX (when
+                // it has AVX2).
+                let mut out = [[DiffuseShading::default(); LANES]; 2];
+                batch.shade_at(Level::baseline(), &mut out[0]);
+                batch.shade_at(Level::new(), &mut out[1]);
+                for ((p, u), (o, o_new)) in cases.into_iter().zip(out[0].into_iter().zip(out[1])) {
+                    assert_eq!(shading_bits(&o), shading_bits(&o_new), "{p} {u}");
                     let single = sample_chosen_light(&scene, choice, p, u)
                         .filter(|ls| ls.wi.dot((centre - p).normalize()) > 0.0);
                     let wide = o.light.map(|l| (l.wi, l.dist, l.pdf));
