@@ -399,12 +399,12 @@ impl Scene {
     /// Closest hit along `ray` within its interval.
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
         let h = self.closest(ray)?;
-        Some(self.interaction_at(ray, h))
+        Some(self.interaction_at(ray, &h))
     }
 
     /// The interaction at `hit`, the closest hit along `ray`.
     #[inline]
-    pub fn interaction_at(&self, ray: &Ray, hit: HitRecord) -> SurfaceInteraction {
+    pub fn interaction_at(&self, ray: &Ray, hit: &HitRecord) -> SurfaceInteraction {
         let closest = Ray {
             t_max: hit.hit.t,
             ..*ray
@@ -425,7 +425,7 @@ impl Scene {
         if !wanted(h.shape) {
             return Some(Err(h.shape));
         }
-        Some(Ok(self.interaction_at(ray, h)))
+        Some(Ok(self.interaction_at(ray, &h)))
     }
 
     /// The first surface along a shadow ray, with no more computed than the
@@ -443,7 +443,7 @@ impl Scene {
             ..*ray
         };
         if !matches!(bsdf, Bsdf::Null(_)) {
-            return Some(ShadowHit::Surface(self.interaction(ray, &closest, h)));
+            return Some(ShadowHit::Surface(self.interaction(ray, &closest, &h)));
         }
         let shape = &self.shapes[h.shape as usize];
         let (p, n) = match h.instance {
@@ -663,7 +663,7 @@ impl Scene {
     }
 
     #[inline]
-    fn interaction(&self, ray: &Ray, closest: &Ray, h: HitRecord) -> SurfaceInteraction {
+    fn interaction(&self, ray: &Ray, closest: &Ray, h: &HitRecord) -> SurfaceInteraction {
         let shape = &self.shapes[h.shape as usize];
         let mut si = match h.instance {
             // The shape's interaction already looks back along `closest`,

@@ -85,7 +85,7 @@ impl Integrator for DirectIntegrator {
                 environment_radiance(scene, &RayOrigin::camera(ray.o), ray.d.normalize())
             };
         };
-        let si = scene.interaction_at(ray, hit);
+        let si = scene.interaction_at(ray, &hit);
         let mut l = if self.hide_emitters {
             Rgb::ZERO
         } else {
@@ -114,7 +114,7 @@ impl Integrator for DirectIntegrator {
             let next = si.spawn_ray(si.to_world(bs.wi));
             let origin = RayOrigin::surface(&si, pdf);
             let le = match scene.closest(&next) {
-                Some(hit) => surface_emission(scene, &scene.interaction_at(&next, hit), &origin),
+                Some(hit) => surface_emission(scene, &scene.interaction_at(&next, &hit), &origin),
                 None => environment_radiance(scene, &origin, next.d),
             };
             l += bs.weight * le / nb;

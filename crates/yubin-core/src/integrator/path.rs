@@ -141,9 +141,10 @@ impl Integrator for PathIntegrator {
         // Per batch entry: its lane, point, geometric normal, reflectance.
         let mut queued = [(0usize, Vec3::ZERO, Vec3::ZERO, Rgb::ZERO); wide::LANES];
         let mut shading = [DiffuseShading::default(); wide::LANES];
+        let mut hits = [None; PACKET_RAYS];
         while lanes.alive != 0 {
             let next_rays = lanes.paths.each_ref().map(|p| p.ray);
-            let hits = scene.closest_packet(&next_rays, lanes.alive);
+            scene.closest_packet(&next_rays, lanes.alive, &mut hits);
             batch.clear();
             for (lane, &hit) in hits.iter().enumerate() {
                 if lanes.alive >> lane & 1 == 0 {
@@ -157,7 +158,7 @@ impl Integrator for PathIntegrator {
                     lanes.finish(lane, rays, out);
                     continue;
                 };
-                let si = scene.interaction_at(&path.ray, hit);
+                let si = scene.interaction_at(&path.ray, &hit);
                 let goes_on = self.land(scene, path, &si)
                     && match scene.diffuse_sides_of(si.shape) {
                         Some(sides) => {
@@ -287,7 +288,7 @@ impl PathIntegrator {
             self.escape(scene, path);
             return false;
         };
-        let si = scene.interaction_at(&path.ray, hit);
+        let si = scene.interaction_at(&path.ray, &hit);
         self.land(scene, path, &si) && self.scatter(scene, path, &si, sampler)
     }
 

@@ -260,7 +260,7 @@ impl ParticleTracer {
             let Some(hit) = scene.closest(&ray) else {
                 break;
             };
-            let si = scene.interaction_at(&ray, hit);
+            let si = scene.interaction_at(&ray, &hit);
             let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
             if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) {

@@ -534,7 +534,7 @@ impl Integrator for VolPathIntegrator {
                 }
                 break;
             };
-            let si = scene.interaction_at(&ray, hit);
+            let si = scene.interaction_at(&ray, &hit);
             if !hidden {
                 l += surface_emission_with(scene, &si, &mis_origin, weigh);
             }

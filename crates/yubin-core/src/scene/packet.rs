@@ -38,7 +38,7 @@ fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
 struct PacketHits<'r> {
     rays: &'r [Ray; PACKET_RAYS],
     t_max: [f32; PACKET_RAYS],
-    best: [Option<HitRecord>; PACKET_RAYS],
+    best: &'r mut [Option<HitRecord>; PACKET_RAYS],
 }
 
 impl PacketHits<'_> {
@@ -85,7 +85,8 @@ fn small_tree_packet(
     scene: &Scene,
     rays: &[Ray; PACKET_RAYS],
     active: u32,
-) -> [Option<HitRecord>; PACKET_RAYS] {
+    out: &mut [Option<HitRecord>; PACKET_RAYS],
+) {
     #[target_cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     #[inherit_target]
     #[inline]
@@ -93,7 +94,8 @@ fn small_tree_packet(
         scene: &Scene,
         rays: &[Ray; PACKET_RAYS],
         active: u32,
-    ) -> [Option<HitRecord>; PACKET_RAYS] {
+        out: &mut [Option<HitRecord>; PACKET_RAYS],
+    ) {
         let kernels = PacketKernels {
             boxes: |l: &PacketLanes, n: &Node, c, t| crate::accel::hit_child_avx2(l, n, c, t),
             triangles: |r: &WatertightRay, p: &TrianglePackets, s, c, t| {
@@ -101,7 +103,7 @@ fn small_tree_packet(
             },
             shapes: |s: &Shape, p: &RayPacket, t| crate::shape::shape_packet_avx2(s, p, t),
         };
-        scene.small_tree_packet_by(rays, active, &kernels)
+        scene.small_tree_packet_by(rays, active, &kernels, out)
     }
     #[target_cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
     #[inline(always)]
@@ -109,15 +111,16 @@ fn small_tree_packet(
         scene: &Scene,
         rays: &[Ray; PACKET_RAYS],
         active: u32,
-    ) -> [Option<HitRecord>; PACKET_RAYS] {
+        out: &mut [Option<HitRecord>; PACKET_RAYS],
+    ) {
         let kernels = PacketKernels {
             boxes: PacketLanes::hit_child,
             triangles: WatertightRay::intersect_packet,
             shapes: Shape::intersect_packet,
         };
-        scene.small_tree_packet_by(rays, active, &kernels)
+        scene.small_tree_packet_by(rays, active, &kernels, out)
     }
-    traverse(scene, rays, active)
+    traverse(scene, rays, active, out)
 }
 
 /// The tests packet traversal runs: a child box against the packet's
@@ -132,21 +135,25 @@ struct PacketKernels<B, T, S> {
 impl Scene {
     /// The closest hits of the rays of `rays` whose bit is set in
     /// `active` (the others get `None`), each the hit [`Scene::closest`]
-    /// finds for it.
+    /// finds for it, written to `out` (in place: the caller reads them
+    /// field by field soon after, which a copy's wide stores would
+    /// hold up).
     pub fn closest_packet(
         &self,
         rays: &[Ray; PACKET_RAYS],
         active: u32,
-    ) -> [Option<HitRecord>; PACKET_RAYS] {
+        out: &mut [Option<HitRecord>; PACKET_RAYS],
+    ) {
         let g = &self.groups[0];
         if !g.bvh.takes_packets() {
-            return std::array::from_fn(|l| {
-                (active >> l & 1 != 0)
+            for (l, hit) in out.iter_mut().enumerate() {
+                *hit = (active >> l & 1 != 0)
                     .then(|| self.closest(&rays[l]))
-                    .flatten()
-            });
+                    .flatten();
+            }
+            return;
         }
-        small_tree_packet(self, rays, active)
+        small_tree_packet(self, rays, active, out)
     }
 
     /// [`Scene::closest_packet`] in a small tree, with these tests.
@@ -156,8 +163,8 @@ impl Scene {
         rays: &[Ray; PACKET_RAYS],
         active: u32,
         kernels: &PacketKernels<B, T, S>,
-    ) -> [Option<HitRecord>; PACKET_RAYS]
-    where
+        out: &mut [Option<HitRecord>; PACKET_RAYS],
+    ) where
         B: Fn(&PacketLanes, &Node, usize, f32x8) -> u32,
         T: Fn(&WatertightRay, &TrianglePackets, usize, usize, f32) -> Option<(usize, PrimHit)>,
         S: Fn(&Shape, &RayPacket, f32x8) -> Option<(u32, f32x8, [f32x8; 2])>,
@@ -168,8 +175,9 @@ impl Scene {
         let mut hits = PacketHits {
             rays,
             t_max: rays.map(|r| r.t_max),
-            best: [None; PACKET_RAYS],
+            best: out,
         };
+        hits.best.fill(None);
         // Per lane, its ray prepared for triangle tests, when it meets one.
         let mut sheared: [Option<WatertightRay>; PACKET_RAYS] = [None; PACKET_RAYS];
         let t_max = f32x8::new(hits.t_max);
@@ -202,7 +210,6 @@ impl Scene {
                 f32x8::new(hits.t_max)
             },
         );
-        hits.best
     }
 
     /// Tests `item` (not a triangle) against the lanes `mask` of `packet`.
@@ -381,7 +388,8 @@ mod tests {
         for _ in 0..3000 {
             let rays = random_rays(&mut rng);
             let active = rng.next_u32() & 0xff;
-            let hits = scene.closest_packet(&rays, active);
+            let mut hits = [None; PACKET_RAYS];
+            scene.closest_packet(&rays, active, &mut hits);
             for (lane, (ray, hit)) in rays.iter().zip(hits).enumerate() {
                 let expected = (active >> lane & 1 != 0)
                     .then(|| scene.closest(ray))
