@@ -239,7 +239,10 @@ fn dot<S: Simd>(a: &V3<S>, b: &V3<S>) -> F8<S> {
 
 #[inline(always)]
 fn lanes<S: Simd, const N: usize>(simd: S, a: &[[f32; LANES]; N]) -> [F8<S>; N] {
-    a.map(|v| F8::simd_from(simd, v))
+    a.map(
+        #[inline(always)]
+        |v| F8::simd_from(simd, v),
+    )
 }
 
 /// The lanes of `a` that hold 1 (the others hold 0).
@@ -381,12 +384,16 @@ impl DiffuseBatch {
         // The rectangle's area sample: the unit square's point
         // 2u − 1 placed by the rectangle's transform.
         let (lx, ly) = (c(2.0) * u[0] - one, c(2.0) * u[1] - one);
-        let q: V3<S> = std::array::from_fn(|a| {
-            axes[a] * lx + axes[3 + a] * ly + axes[6 + a] * zero + axes[9 + a]
-        });
+        let q: V3<S> = std::array::from_fn(
+            #[inline(always)]
+            |a| axes[a] * lx + axes[3 + a] * ly + axes[6 + a] * zero + axes[9 + a],
+        );
         let ln = lanes(simd, &self.light_normal);
         // Its density per solid angle (`area_to_solid_angle`).
-        let d: V3<S> = std::array::from_fn(|a| q[a] - p[a]);
+        let d: V3<S> = std::array::from_fn(
+            #[inline(always)]
+            |a| q[a] - p[a],
+        );
         let dist2 = dot(&d, &d);
         let dist = dist2.sqrt();
         let n_dot_d = dot(&ln, &d).abs();
@@ -401,17 +408,26 @@ impl DiffuseBatch {
                 let (q_near, pdf_near, in_range) = self.spherical_samples(simd, p, &u);
                 let near = M8::from_bitmask(simd, u64::from(self.near)) & in_range;
                 (
-                    std::array::from_fn(|a| select(near, q_near[a], q[a])),
+                    std::array::from_fn(
+                        #[inline(always)]
+                        |a| select(near, q_near[a], q[a]),
+                    ),
                     select(near, pdf_near, pdf),
                 )
             }
         };
-        let d: V3<S> = std::array::from_fn(|a| q[a] - p[a]);
+        let d: V3<S> = std::array::from_fn(
+            #[inline(always)]
+            |a| q[a] - p[a],
+        );
         let dist = dot(&d, &d).sqrt();
         // The area light's checks and direction (`emitted_towards`).
         let bad_pdf = pdf.is_nan() | pdf.simd_le(zero) | !pdf.is_finite();
         let inv_dist = one / dist;
-        let wi: V3<S> = std::array::from_fn(|a| d[a] * inv_dist);
+        let wi: V3<S> = std::array::from_fn(
+            #[inline(always)]
+            |a| d[a] * inv_dist,
+        );
         let behind = dot(&ln, &wi).simd_ge(zero);
         let valid = ones(simd, &self.has_light) & !bad_pdf & !dist.simd_eq(zero) & !behind;
         // The BSDF there (`diffuse` seen through `twosided`), which reads
@@ -421,23 +437,32 @@ impl DiffuseBatch {
         let cos_over_pi = c(FRAC_1_PI) * wi_z;
         let r = lanes(simd, &self.reflectance);
         let le = lanes(simd, &self.radiance);
-        let f: V3<S> = std::array::from_fn(|a| select(lit, r[a] * cos_over_pi, zero));
-        let f_le: V3<S> = std::array::from_fn(|a| f[a] * le[a]);
+        let f: V3<S> = std::array::from_fn(
+            #[inline(always)]
+            |a| select(lit, r[a] * cos_over_pi, zero),
+        );
+        let f_le: V3<S> = std::array::from_fn(
+            #[inline(always)]
+            |a| f[a] * le[a],
+        );
         let f_nonzero = !(f[0].simd_eq(zero) & f[1].simd_eq(zero) & f[2].simd_eq(zero));
         let mis = ones(simd, &self.mis);
         let bsdf_pdf = select(lit & mis, max(wi_z, zero) * c(FRAC_1_PI), zero);
         let light_pdf = pdf * F8::simd_from(simd, self.pick_pdf);
         let w = select(mis, power_heuristic(simd, light_pdf * one, bsdf_pdf), one);
         let keep = (valid & f_nonzero).to_bitmask();
-        std::array::from_fn(|i| {
-            (keep >> i & 1 != 0).then(|| UnshadowedLight {
-                f_le: Vec3::new(f_le[0][i], f_le[1][i], f_le[2][i]),
-                w: w[i],
-                pdf: light_pdf[i],
-                wi: Vec3::new(wi[0][i], wi[1][i], wi[2][i]),
-                dist: dist[i],
-            })
-        })
+        std::array::from_fn(
+            #[inline(always)]
+            |i| {
+                (keep >> i & 1 != 0).then(|| UnshadowedLight {
+                    f_le: Vec3::new(f_le[0][i], f_le[1][i], f_le[2][i]),
+                    w: w[i],
+                    pdf: light_pdf[i],
+                    wi: Vec3::new(wi[0][i], wi[1][i], wi[2][i]),
+                    dist: dist[i],
+                })
+            },
+        )
     }
 
     /// The points `q` and densities `pdf` of area sampling, with those of
@@ -453,7 +478,13 @@ impl DiffuseBatch {
         q: V3<S>,
         pdf: F8<S>,
     ) -> (V3<S>, F8<S>) {
-        let (mut q, mut pdf) = (q.map(|c| *c), *pdf);
+        let (mut q, mut pdf) = (
+            q.map(
+                #[inline(always)]
+                |c| *c,
+            ),
+            *pdf,
+        );
         for i in (0..LANES).filter(|i| self.near >> i & 1 != 0) {
             let f = |k: usize| self.frames[k][i];
             let v = |k: usize| Vec3::new(f(3 * k), f(3 * k + 1), f(3 * k + 2));
@@ -478,7 +509,13 @@ impl DiffuseBatch {
                 pdf[i] = 1.0 / sr.solid_angle();
             }
         }
-        (q.map(|c| F8::simd_from(simd, c)), F8::simd_from(simd, pdf))
+        (
+            q.map(
+                #[inline(always)]
+                |c| F8::simd_from(simd, c),
+            ),
+            F8::simd_from(simd, pdf),
+        )
     }
 
     /// Points sampled uniformly in the solid angle the lanes' rectangles
@@ -495,24 +532,26 @@ impl DiffuseBatch {
         let c = |v: f32| F8::splat(simd, v);
         let one = c(1.0);
         let f = lanes(simd, &self.frames);
-        let vec = |k: usize| [f[3 * k], f[3 * k + 1], f[3 * k + 2]];
-        let (corner, ex, ey) = (vec(0), vec(1), vec(2));
-        let (x, y, z) = (vec(3), vec(4), vec(5));
+        let [corner, ex, ey, x, y, z]: [V3<S>; 6] = std::array::from_fn(
+            #[inline(always)]
+            |k| [f[3 * k], f[3 * k + 1], f[3 * k + 2]],
+        );
         let (w, l, inv_w, inv_l) = (f[18], f[19], f[20], f[21]);
         // The rectangle in the frame at o (`LocalFrame`).
-        let d: V3<S> = std::array::from_fn(|a| corner[a] - o[a]);
+        let d: V3<S> = std::array::from_fn(
+            #[inline(always)]
+            |a| corner[a] - o[a],
+        );
         let (x0, y0) = (dot(&d, &x), dot(&d, &y));
         let (x1, y1) = (x0 + w, y0 + l);
         let h = dot(&d, &z).abs();
         // Its corners' distances (`Corners`).
         let z0 = -h;
-        let length = |x: F8<S>, y: F8<S>| (x * x + y * y + z0 * z0).sqrt();
-        let len = [
-            length(x0, y0),
-            length(x1, y0),
-            length(x1, y1),
-            length(x0, y1),
-        ];
+        let [xs, ys] = [[x0, x1, x1, x0], [y0, y0, y1, y1]];
+        let len: [F8<S>; 4] = std::array::from_fn(
+            #[inline(always)]
+            |k| (xs[k] * xs[k] + ys[k] * ys[k] + z0 * z0).sqrt(),
+        );
         let corners = [[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]];
         let solid_angle = solid_angle(simd, &corners, &len);
         let in_range = solid_angle.simd_ge(c(SPHERICAL_MIN_SOLID_ANGLE))
@@ -540,9 +579,14 @@ impl DiffuseBatch {
         let hv = h0 + u[1] * (h1 - h0);
         let yv = hv * (dist2 / max(one - hv * hv, c(1e-12))).sqrt();
         let yv = min(max(yv, y0), y1);
-        let clamp = |v: F8<S>| min(max(v, c(0.0)), one);
-        let (ux, uy) = (clamp((xu - x0) * inv_w), clamp((yv - y0) * inv_l));
-        let q = std::array::from_fn(|a| corner[a] + ux * ex[a] + uy * ey[a]);
+        let (ux, uy) = (
+            min(max((xu - x0) * inv_w, c(0.0)), one),
+            min(max((yv - y0) * inv_l, c(0.0)), one),
+        );
+        let q = std::array::from_fn(
+            #[inline(always)]
+            |a| corner[a] + ux * ex[a] + uy * ey[a],
+        );
         (q, one / solid_angle, in_range)
     }
 
@@ -573,11 +617,15 @@ impl DiffuseBatch {
         let z = max(one - r * r, zero).sqrt();
         let pdf = max(z, zero) * c(FRAC_1_PI);
         let z = flip * z;
-        let wi: V3<S> = std::array::from_fn(|a| s[a] * dx + t[a] * dy + n[a] * z);
+        let wi: V3<S> = std::array::from_fn(
+            #[inline(always)]
+            |a| s[a] * dx + t[a] * dy + n[a] * z,
+        );
         let ok = pdf.simd_gt(zero).to_bitmask();
-        std::array::from_fn(|i| {
-            (ok >> i & 1 != 0).then(|| (Vec3::new(wi[0][i], wi[1][i], wi[2][i]), pdf[i]))
-        })
+        std::array::from_fn(
+            #[inline(always)]
+            |i| (ok >> i & 1 != 0).then(|| (Vec3::new(wi[0][i], wi[1][i], wi[2][i]), pdf[i])),
+        )
     }
 }
 
@@ -600,14 +648,24 @@ fn power_heuristic<S: Simd>(simd: S, pdf_a: F8<S>, pdf_b: F8<S>) -> F8<S> {
 #[inline(always)]
 fn solid_angle<S: Simd>(simd: S, v: &[V3<S>; 4], len: &[F8<S>; 4]) -> F8<S> {
     let triple = v[0][2].abs() * (v[2][0] - v[0][0]) * (v[2][1] - v[0][1]);
-    let den = |a: usize, b: usize, c: usize| {
+    // (Functions rather than closures: a closure is not compiled for the
+    // kernel's SIMD level when it is not inlined.)
+    #[inline(always)]
+    fn den<S: Simd>(v: &[V3<S>; 4], len: &[F8<S>; 4], [a, b, c]: [usize; 3]) -> F8<S> {
         len[a] * len[b] * len[c]
             + dot(&v[a], &v[b]) * len[c]
             + dot(&v[a], &v[c]) * len[b]
             + dot(&v[b], &v[c]) * len[a]
-    };
-    let f64s = |v: F8<S>| f64x8::simd_from(simd, (*v).map(f64::from));
-    let (t, d0, d1) = (f64s(triple), f64s(den(0, 1, 2)), f64s(den(0, 2, 3)));
+    }
+    #[inline(always)]
+    fn f64s<S: Simd>(simd: S, v: F8<S>) -> f64x8<S> {
+        f64x8::simd_from(simd, (*v).map(f64::from))
+    }
+    let (t, d0, d1) = (
+        f64s(simd, triple),
+        f64s(simd, den(v, len, [0, 1, 2])),
+        f64s(simd, den(v, len, [0, 2, 3])),
+    );
     // `atan2_f64`'s ratio and octant.
     let (y, x) = (t * (d0 + d1), d0 * d1 - t * t);
     let (ax, ay) = (x.abs(), y.abs());
@@ -619,7 +677,16 @@ fn solid_angle<S: Simd>(simd: S, v: &[V3<S>; 4], len: &[F8<S>; 4]) -> F8<S> {
         narrow(simd, x.simd_lt(0.0)),
         narrow(simd, y.simd_lt(0.0)),
     );
-    let r = atan_unit(simd, F8::simd_from(simd, (*ratio).map(|v| v as f32)));
+    let r = atan_unit(
+        simd,
+        F8::simd_from(
+            simd,
+            (*ratio).map(
+                #[inline(always)]
+                |v| v as f32,
+            ),
+        ),
+    );
     let r = steep.select(F8::splat(simd, FRAC_PI_2) - r, r);
     let r = x_negative.select(F8::splat(simd, PI) - r, r);
     let r = y_negative.select(-r, r);
