@@ -27,7 +27,7 @@ use super::{make_interaction_in_frame, PositionSample, PrimHit, ShapeModel, Tria
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Frame, Ray, RayPacket, Transform};
 use crate::params::{ParamError, Params};
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{BVec3A, Vec2, Vec3, Vec3A};
 use wide::{f32x8, CmpGt, CmpLe, CmpLt};
 
 /// The transformed cube [-1, 1]³.
@@ -40,10 +40,27 @@ pub struct Cube {
     /// Per axis a, the shading frame of the face with outward normal +e_a
     /// (after `flip_normals`); the −e_a face's is (s, −t, −n).
     frames: [Frame; 3],
+    /// Per face, in [`face_code`] order, what its interactions read.
+    faces: [CubeFace; 6],
     /// Per axis, the area of one of its two faces.
     face_areas: [f32; 3],
     area: f32,
     inv_area: f32,
+}
+
+/// One face of a cube as its interactions read it (no indexing of a
+/// point by a run-time axis, which goes through memory).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct CubeFace {
+    frame: Frame,
+    dpdu: Vec3,
+    dpdv: Vec3,
+    /// The face's axis, and its coordinate there (±1, all three lanes).
+    on_axis: BVec3A,
+    side: Vec3A,
+    /// The object-space axis of u, and of v with the face's side's sign.
+    u_axis: Vec3,
+    v_axis: Vec3,
 }
 
 /// How far samples stay from a face's edges, in uv.
@@ -66,14 +83,38 @@ impl Cube {
             Frame::from_normal_and_tangent(n, 2.0 * column(next(a)))
         });
         let area = 2.0 * face_areas.iter().sum::<f32>();
-        Self {
+        let mut cube = Self {
             to_world,
             flip_normals,
             frames,
+            faces: [CubeFace {
+                frame: frames[0],
+                dpdu: Vec3::ZERO,
+                dpdv: Vec3::ZERO,
+                on_axis: BVec3A::FALSE,
+                side: Vec3A::ZERO,
+                u_axis: Vec3::ZERO,
+                v_axis: Vec3::ZERO,
+            }; 6],
             face_areas,
             area,
             inv_area: 1.0 / area,
-        }
+        };
+        cube.faces = std::array::from_fn(|code| {
+            let (axis, positive) = face_of_code(code as f32);
+            let (frame, dpdu, dpdv) = cube.face(axis, positive);
+            let sign = if positive { 1.0 } else { -1.0 };
+            CubeFace {
+                frame,
+                dpdu,
+                dpdv,
+                on_axis: BVec3A::from_array(std::array::from_fn(|a| a == axis)),
+                side: Vec3A::splat(sign),
+                u_axis: Vec3::AXES[next(axis)],
+                v_axis: sign * Vec3::AXES[next(next(axis))],
+            }
+        });
+        cube
     }
 
     /// Builds the cube from its scene parameters.
@@ -238,16 +279,15 @@ impl ShapeModel for Cube {
         ray: &Ray,
         hit: PrimHit,
     ) -> SurfaceInteraction {
-        let (axis, positive) = face_of_code(hit.uv.x);
+        let face = &self.faces[(hit.uv.x as usize).min(5)];
         let q = self.to_world.inv.transform_point3(ray.at(hit.t));
-        let mut q = q.clamp(Vec3::NEG_ONE, Vec3::ONE);
-        q[axis] = if positive { 1.0 } else { -1.0 };
-        let (frame, dpdu, dpdv) = self.face(axis, positive);
-        let v = q[next(next(axis))];
-        let v = if positive { v } else { -v };
-        let uv = (Vec2::new(q[next(axis)], v) + Vec2::ONE) * 0.5;
+        let q = q.clamp(Vec3::NEG_ONE, Vec3::ONE);
+        // On the face: its axis's coordinate exactly ±1.
+        let q = Vec3::from(Vec3A::select(face.on_axis, face.side, q.into()));
+        // The other two coordinates (each a product by 1 and two by 0).
+        let uv = (Vec2::new(q.dot(face.u_axis), q.dot(face.v_axis)) + Vec2::ONE) * 0.5;
         let p = self.to_world.point(q);
-        make_interaction_in_frame(ray, hit.t, p, frame, uv, dpdu, dpdv)
+        make_interaction_in_frame(ray, hit.t, p, face.frame, uv, face.dpdu, face.dpdv)
     }
 
     fn surface_area(&self, _: &[TriangleMesh]) -> f32 {
