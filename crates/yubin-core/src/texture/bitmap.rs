@@ -55,6 +55,10 @@ impl WrapMode {
     #[inline]
     pub fn index(self, i: i64, n: u32) -> u32 {
         let n = n as i64;
+        // Most lookups land inside: no 64-bit division for them.
+        if (0..n).contains(&i) {
+            return i as u32;
+        }
         let w = match self {
             WrapMode::Repeat => i.rem_euclid(n),
             WrapMode::Clamp => i.clamp(0, n - 1),
