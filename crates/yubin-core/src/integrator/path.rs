@@ -407,7 +407,7 @@ impl PathIntegrator {
         let u_bsdf = sampler.next_2d();
         // Seen from where it reflects nothing, the light sample and the
         // BSDF sample both vanish.
-        let (reflectance, flip) = sides.facing(wo)?;
+        let (reflectance, flip) = sides.facing(&scene.materials, si, wo)?;
         let mut light = None;
         if let Some((choice, pick_pdf)) = scene.pick_light(draw.u_pick, si.p, si.n) {
             let rectangle = scene.rectangle_light(choice.emitter);
@@ -483,21 +483,42 @@ mod tests {
     use crate::SceneBuilder;
     use glam::Affine3A;
 
-    /// A lit box of rectangles with a diffuse and a glass sphere, and a
-    /// two-sided panel.
+    /// A lit box of rectangles (one checkered) with a diffuse and a glass
+    /// sphere, and a two-sided panel.
     fn room() -> Scene {
         let mut b = SceneBuilder::new();
         let white = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(0.7))));
         let glass = b.add_bsdf(Bsdf::Dielectric(Dielectric::new(1.5)));
+        // A checkered wall: a textured reflectance, evaluated per vertex.
+        let checks = b.add_texture(crate::texture::Texture::Checkerboard(
+            crate::texture::Checkerboard {
+                color0: Rgb::new(0.8, 0.2, 0.2).into(),
+                color1: Rgb::new(0.1, 0.6, 0.9).into(),
+                to_uv: glam::Affine2::from_scale(glam::Vec2::splat(5.0)),
+            },
+        ));
+        let checkered = b.add_bsdf(Bsdf::Diffuse(Diffuse {
+            reflectance: crate::texture::Tex::Texture(checks),
+        }));
         let wall =
             |m: Affine3A| Shape::Rectangle(Rectangle::new(Transform::new(m).unwrap(), false));
-        for m in [
-            Affine3A::from_translation(Vec3::new(0.0, 0.0, -1.0)),
-            Affine3A::from_translation(Vec3::new(0.0, -1.0, 0.0))
-                * Affine3A::from_rotation_x(-1.57),
-            Affine3A::from_translation(Vec3::new(1.0, 0.0, 0.0)) * Affine3A::from_rotation_y(-1.57),
+        for (m, bsdf) in [
+            (
+                Affine3A::from_translation(Vec3::new(0.0, 0.0, -1.0)),
+                checkered,
+            ),
+            (
+                Affine3A::from_translation(Vec3::new(0.0, -1.0, 0.0))
+                    * Affine3A::from_rotation_x(-1.57),
+                white,
+            ),
+            (
+                Affine3A::from_translation(Vec3::new(1.0, 0.0, 0.0))
+                    * Affine3A::from_rotation_y(-1.57),
+                white,
+            ),
         ] {
-            b.add_shape(wall(m), Some(white), None).unwrap();
+            b.add_shape(wall(m), Some(bsdf), None).unwrap();
         }
         let light = Affine3A::from_translation(Vec3::new(0.0, 0.99, 0.0))
             * Affine3A::from_rotation_x(1.57)
@@ -534,8 +555,8 @@ mod tests {
     }
 
     /// Paths traced in packets (lanes refilled as paths end, some camera
-    /// rays missing; diffuse vertices shaded eight at a time, from both
-    /// sides of a two-sided panel, with the light sampled by area and by
+    /// rays missing; diffuse vertices shaded eight at a time, textured and
+    /// not, from both sides of a two-sided panel, with the light sampled by area and by
     /// solid angle) give each sample the value `li` gives it alone.
     #[test]
     fn packets_of_paths_equal_single_paths() {

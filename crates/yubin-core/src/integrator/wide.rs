@@ -1,5 +1,6 @@
 //! Eight vertices of a path packet shaded at once: the vertices whose BSDF
-//! is a `diffuse` of constant reflectance (alone or in `twosided`), with
+//! is a `diffuse` (alone or in `twosided`; a textured reflectance is
+//! evaluated per vertex as it is queued), with
 //! their light samples where the chosen light is an `area` light of
 //! constant radiance on a `rectangle`. For them the light sample's point
 //! (by area, or uniformly in the solid angle the rectangle subtends from
@@ -26,6 +27,7 @@
 //! sampler's numbers and everything else stay per lane.
 
 use crate::bsdf::Bsdf;
+use crate::interaction::SurfaceInteraction;
 use crate::light::{Emitter, EmitterOptions};
 use crate::material::Materials;
 use crate::math::{
@@ -47,44 +49,47 @@ use std::f32::consts::{FRAC_1_PI, FRAC_2_PI, FRAC_PI_2, FRAC_PI_4, PI};
 /// Lanes of a batch.
 pub(crate) const LANES: usize = 8;
 
-/// The reflectances of a `diffuse` BSDF of constant reflectance, or of a
+/// The reflectances (constant or textured) of a `diffuse` BSDF, or of a
 /// `twosided` one made of two of them.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct DiffuseSides {
-    front: Rgb,
+    front: Tex,
     /// `None` for a one-sided `diffuse`, black from below.
-    back: Option<Rgb>,
+    back: Option<Tex>,
 }
 
 impl DiffuseSides {
     /// The sides of `bsdf` when it is such a BSDF (the scene keeps them
     /// per BSDF: [`crate::Scene::diffuse_sides_of`]).
     pub fn of(materials: &Materials, bsdf: &Bsdf) -> Option<Self> {
-        let constant = |b: &Bsdf| match b {
-            Bsdf::Diffuse(d) => match d.reflectance {
-                Tex::Const(c) => Some(c),
-                Tex::Texture(_) => None,
-            },
+        let reflectance = |b: &Bsdf| match b {
+            Bsdf::Diffuse(d) => Some(d.reflectance),
             _ => None,
         };
         match bsdf {
             Bsdf::TwoSided(t) => Some(Self {
-                front: constant(&materials.bsdfs[t.front as usize])?,
-                back: Some(constant(&materials.bsdfs[t.back as usize])?),
+                front: reflectance(&materials.bsdfs[t.front as usize])?,
+                back: Some(reflectance(&materials.bsdfs[t.back as usize])?),
             }),
             b => Some(Self {
-                front: constant(b)?,
+                front: reflectance(b)?,
                 back: None,
             }),
         }
     }
 
-    /// The reflectance seen from the local direction `wo`, and −1 where
+    /// The reflectance seen from the local direction `wo` (a texture
+    /// evaluated at `si`, as the scalar BSDF evaluates it), and −1 where
     /// that is the back side (the directions mirrored, as `twosided`
     /// does), 1 on the front; `None` where the BSDF reflects nothing: its
     /// values and samples all vanish (a one-sided `diffuse` from below).
     #[inline]
-    pub fn facing(&self, wo: Vec3) -> Option<(Rgb, f32)> {
+    pub fn facing(
+        &self,
+        materials: &Materials,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+    ) -> Option<(Rgb, f32)> {
         let (r, flip) = match self.back {
             // `twosided` takes wo.z ≥ 0 as its front (and NaN as its back).
             Some(back) if wo.z < 0.0 || wo.z.is_nan() => (back, -1.0),
@@ -95,7 +100,7 @@ impl DiffuseSides {
         if flip * wo.z <= 0.0 {
             None
         } else {
-            Some((r, flip))
+            Some((r.eval(materials, si), flip))
         }
     }
 }
