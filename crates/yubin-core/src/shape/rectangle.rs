@@ -64,10 +64,14 @@ struct Geometry {
 
 /// Whether `p` is near enough to a rectangle of area `area` around
 /// `center` to sample it by the solid angle it subtends (about as near as
-/// it is large; see [`NEAR_AREA_PER_DISTANCE2`]).
+/// it is large; see [`NEAR_AREA_PER_DISTANCE2`]), on the side its normal
+/// `normal` faces. Behind it, where an area light sends nothing, either
+/// sampling finds nothing and the cheaper one serves (in the Cornell box,
+/// the ceiling around the light).
 #[inline]
-fn is_near(center: Vec3, area: f32, p: Vec3) -> bool {
-    area >= NEAR_AREA_PER_DISTANCE2 * center.distance_squared(p)
+fn is_near(center: Vec3, normal: Vec3, area: f32, p: Vec3) -> bool {
+    let d = p - center;
+    d.dot(normal) > 0.0 && area >= NEAR_AREA_PER_DISTANCE2 * d.length_squared()
 }
 
 /// The points from which a rectangle is sampled by the solid angle it
@@ -77,6 +81,7 @@ fn is_near(center: Vec3, area: f32, p: Vec3) -> bool {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct NearZone {
     center: Vec3,
+    normal: Vec3,
     area: f32,
     frame: Option<RectangleFrame>,
 }
@@ -85,7 +90,7 @@ impl NearZone {
     /// The frame for spherical sampling from `p`, where that applies.
     #[inline]
     pub fn frame_at(&self, p: Vec3) -> Option<&RectangleFrame> {
-        (self.frame.as_ref()).filter(|_| is_near(self.center, self.area, p))
+        (self.frame.as_ref()).filter(|_| is_near(self.center, self.normal, self.area, p))
     }
 }
 
@@ -133,7 +138,7 @@ impl Rectangle {
     #[inline]
     fn near_frame(&self, p: Vec3) -> Option<&RectangleFrame> {
         let g = &self.geometry;
-        let near = is_near(g.center, g.area, p);
+        let near = is_near(g.center, g.normal, g.area, p);
         g.spherical.as_ref().filter(|_| near)
     }
 
@@ -143,6 +148,7 @@ impl Rectangle {
         let g = &self.geometry;
         NearZone {
             center: g.center,
+            normal: g.normal,
             area: g.area,
             frame: g.spherical,
         }
