@@ -71,7 +71,7 @@ struct Geometry {
 #[inline]
 fn is_near(center: Vec3, normal: Vec3, area: f32, p: Vec3) -> bool {
     let d = p - center;
-    d.dot(normal) > 0.0 && area >= NEAR_AREA_PER_DISTANCE2 * d.length_squared()
+    (d.dot(normal) > 0.0) & (area >= NEAR_AREA_PER_DISTANCE2 * d.length_squared())
 }
 
 /// The points from which a rectangle is sampled by the solid angle it
