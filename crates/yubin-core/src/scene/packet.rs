@@ -57,7 +57,7 @@ impl PacketHits<'_> {
             HitRecord {
                 shape,
                 prim,
-                hit,
+                hit: super::WholeHit(hit),
                 instance,
             },
         );
