@@ -37,9 +37,6 @@ pub struct Cube {
     pub(crate) to_world: Transform,
     /// Normals point inward.
     pub(crate) flip_normals: bool,
-    /// Per axis a, the shading frame of the face with outward normal +e_a
-    /// (after `flip_normals`); the −e_a face's is (s, −t, −n).
-    frames: [Frame; 3],
     /// Per face, in [`face_code`] order, what its interactions read.
     faces: [CubeFace; 6],
     /// Per axis, the area of one of its two faces.
@@ -48,20 +45,40 @@ pub struct Cube {
     inv_area: f32,
 }
 
-/// One face of a cube as its interactions read it (no indexing of a
-/// point by a run-time axis, which goes through memory).
+/// One face of a cube: its shading frame, dp/du and dp/dv.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct CubeFace {
     frame: Frame,
     dpdu: Vec3,
     dpdv: Vec3,
-    /// The face's axis, and its coordinate there (±1, all three lanes).
-    on_axis: BVec3A,
-    side: Vec3A,
-    /// The object-space axis of u, and of v with the face's side's sign.
-    u_axis: Vec3,
-    v_axis: Vec3,
 }
+
+/// Per face (in [`face_code`] order), in object space: which coordinate
+/// is its axis, that coordinate (±1), and the axes of u and of v (v's
+/// with the face's sign: −e for the faces at −1).
+const FACE_AXES: [([bool; 3], f32, Vec3, Vec3); 6] = [
+    (
+        [true, false, false],
+        -1.0,
+        Vec3::Y,
+        Vec3::new(-0.0, -0.0, -1.0),
+    ),
+    (
+        [false, true, false],
+        -1.0,
+        Vec3::Z,
+        Vec3::new(-1.0, -0.0, -0.0),
+    ),
+    (
+        [false, false, true],
+        -1.0,
+        Vec3::X,
+        Vec3::new(-0.0, -1.0, -0.0),
+    ),
+    ([true, false, false], 1.0, Vec3::Y, Vec3::Z),
+    ([false, true, false], 1.0, Vec3::Z, Vec3::X),
+    ([false, false, true], 1.0, Vec3::X, Vec3::Y),
+];
 
 /// How far samples stay from a face's edges, in uv.
 const EDGE_INSET: f32 = 1e-6;
@@ -78,43 +95,46 @@ impl Cube {
         let column = |a: usize| to_world.vector(Vec3::AXES[a]);
         let face_areas: [f32; 3] =
             std::array::from_fn(|a| 4.0 * column(next(a)).cross(column(next(next(a)))).length());
-        let frames = std::array::from_fn(|a| {
+        let frames: [Frame; 3] = std::array::from_fn(|a| {
             let n = super::world_normal(&to_world, Vec3::AXES[a], flip_normals);
             Frame::from_normal_and_tangent(n, 2.0 * column(next(a)))
         });
         let area = 2.0 * face_areas.iter().sum::<f32>();
-        let mut cube = Self {
+        // The face with outward normal +e_a has the frame `frames[a]`
+        // (after `flip_normals`); the −e_a face's is (s, −t, −n).
+        let faces = std::array::from_fn(|code| {
+            let (axis, positive) = face_of_code(code as f32);
+            let f: Frame = frames[axis];
+            let m = &to_world.m.matrix3;
+            let dpdu = 2.0 * Vec3::from(m.col(next(axis)));
+            let dpdv = 2.0 * Vec3::from(m.col(next(next(axis))));
+            if positive {
+                CubeFace {
+                    frame: f,
+                    dpdu,
+                    dpdv,
+                }
+            } else {
+                let frame = Frame {
+                    s: f.s,
+                    t: -f.t,
+                    n: -f.n,
+                };
+                CubeFace {
+                    frame,
+                    dpdu,
+                    dpdv: -dpdv,
+                }
+            }
+        });
+        Self {
             to_world,
             flip_normals,
-            frames,
-            faces: [CubeFace {
-                frame: frames[0],
-                dpdu: Vec3::ZERO,
-                dpdv: Vec3::ZERO,
-                on_axis: BVec3A::FALSE,
-                side: Vec3A::ZERO,
-                u_axis: Vec3::ZERO,
-                v_axis: Vec3::ZERO,
-            }; 6],
+            faces,
             face_areas,
             area,
             inv_area: 1.0 / area,
-        };
-        cube.faces = std::array::from_fn(|code| {
-            let (axis, positive) = face_of_code(code as f32);
-            let (frame, dpdu, dpdv) = cube.face(axis, positive);
-            let sign = if positive { 1.0 } else { -1.0 };
-            CubeFace {
-                frame,
-                dpdu,
-                dpdv,
-                on_axis: BVec3A::from_array(std::array::from_fn(|a| a == axis)),
-                side: Vec3A::splat(sign),
-                u_axis: Vec3::AXES[next(axis)],
-                v_axis: sign * Vec3::AXES[next(next(axis))],
-            }
-        });
-        cube
+        }
     }
 
     /// Builds the cube from its scene parameters.
@@ -130,24 +150,10 @@ impl Cube {
         mesh
     }
 
-    /// The face with outward normal `sign` e_`axis`: its shading frame,
-    /// dp/du and dp/dv.
+    /// The face with outward normal `sign` e_`axis`.
     #[inline]
-    fn face(&self, axis: usize, positive: bool) -> (Frame, Vec3, Vec3) {
-        let f = self.frames[axis];
-        let m = &self.to_world.m.matrix3;
-        let dpdu = 2.0 * Vec3::from(m.col(next(axis)));
-        let dpdv = 2.0 * Vec3::from(m.col(next(next(axis))));
-        if positive {
-            (f, dpdu, dpdv)
-        } else {
-            let frame = Frame {
-                s: f.s,
-                t: -f.t,
-                n: -f.n,
-            };
-            (frame, dpdu, -dpdv)
-        }
+    fn face(&self, axis: usize, positive: bool) -> &CubeFace {
+        &self.faces[axis + 3 * usize::from(positive)]
     }
 
     /// The ray's entry and exit distances through the cube's slabs, each
@@ -279,13 +285,17 @@ impl ShapeModel for Cube {
         ray: &Ray,
         hit: PrimHit,
     ) -> SurfaceInteraction {
-        let face = &self.faces[(hit.uv.x as usize).min(5)];
+        let code = (hit.uv.x as usize).min(5);
+        let face = &self.faces[code];
+        let (on_axis, side, u_axis, v_axis) = FACE_AXES[code];
         let q = self.to_world.inv.transform_point3(ray.at(hit.t));
         let q = q.clamp(Vec3::NEG_ONE, Vec3::ONE);
-        // On the face: its axis's coordinate exactly ±1.
-        let q = Vec3::from(Vec3A::select(face.on_axis, face.side, q.into()));
+        // On the face: its axis's coordinate exactly ±1 (a blend: a store to
+        // a lane picked at run time would go through memory).
+        let on_axis = BVec3A::from_array(on_axis);
+        let q = Vec3::from(Vec3A::select(on_axis, Vec3A::splat(side), q.into()));
         // The other two coordinates (each a product by 1 and two by 0).
-        let uv = (Vec2::new(q.dot(face.u_axis), q.dot(face.v_axis)) + Vec2::ONE) * 0.5;
+        let uv = (Vec2::new(q.dot(u_axis), q.dot(v_axis)) + Vec2::ONE) * 0.5;
         let p = self.to_world.point(q);
         make_interaction_in_frame(ray, hit.t, p, face.frame, uv, face.dpdu, face.dpdv)
     }
@@ -320,7 +330,7 @@ impl ShapeModel for Cube {
         q[next(next(axis))] = if positive { v } else { -v };
         PositionSample {
             p: self.to_world.point(q),
-            n: self.face(axis, positive).0.n,
+            n: self.face(axis, positive).frame.n,
             pdf: self.inv_area,
             uv,
         }

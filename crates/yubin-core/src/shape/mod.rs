@@ -43,6 +43,9 @@ use wide::{f32x8, CmpGt, CmpLt};
 
 /// What a shape plugin builds: an analytic shape, or a triangle mesh for
 /// the scene to add to its meshes (and refer to by index).
+// A value passed once from a plugin to the scene as it loads: its size
+// (a `cube`'s per-face frames) costs nothing there.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug)]
 pub enum BuiltShape {
     /// A shape that needs nothing more.
