@@ -344,11 +344,19 @@ impl LightBvh {
     }
 
     /// Chooses a light for point `p` with normal `n`: uniformly among the
-    /// tree's lights with probability α, else by traversal.
+    /// tree's lights with probability α, else by traversal (a lone light
+    /// inline, without the call).
+    #[inline]
     pub fn sample(&self, u: f32, p: Vec3, n: Vec3) -> Option<(LightChoice, f32)> {
-        if let Some(light) = self.lone {
-            return Some((light, 1.0));
+        match self.lone {
+            Some(light) => Some((light, 1.0)),
+            None => self.sample_among(u, p, n),
         }
+    }
+
+    /// [`LightBvh::sample`] among several lights.
+    #[inline(never)]
+    fn sample_among(&self, u: f32, p: Vec3, n: Vec3) -> Option<(LightChoice, f32)> {
         let p_tree = self.p_tree();
         if u < p_tree && !self.nodes.is_empty() {
             let u = u / p_tree;
