@@ -334,7 +334,9 @@ impl ShapeModel for Shape {
     fn intersect(&self, meshes: &[TriangleMesh], prim: u32, ray: &Ray) -> Option<PrimHit> {
         dispatch!(self, s => s.intersect(meshes, prim, ray))
     }
-    #[inline]
+    // Inline into `Scene::interaction_at`, so that the 160-byte
+    // interaction is built where it is used, not returned through memory.
+    #[inline(always)]
     fn interaction(
         &self,
         meshes: &[TriangleMesh],
