@@ -56,7 +56,7 @@ use super::{latlong, EmitterContext, EmitterModel, EmitterSample};
 use crate::params::{ParamError, Params};
 use crate::sampling::{Distribution1D, Distribution2D};
 use crate::spectrum::luminance;
-use crate::texture::TexImage;
+use crate::texture::{TexImage, WrapMode};
 use crate::Rgb;
 use glam::{DMat3, DMat4, Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
@@ -271,14 +271,8 @@ impl Bilinear {
         let (w, h) = (img.width, img.height);
         let px = uv.x * w as f32 - 0.5;
         let fx0 = crate::math::floor(px);
-        // Wrapped around in u; without a division where it need not be
-        // (uv in [0, 1] gives −1 … w).
-        let xi = fx0 as i64;
-        let x0 = match xi {
-            -1 => w - 1,
-            _ if (0..i64::from(w)).contains(&xi) => xi as u32,
-            _ => xi.rem_euclid(i64::from(w)) as u32,
-        };
+        // Wrapped around in u.
+        let x0 = WrapMode::Repeat.index(fx0 as i64, w);
         let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
         let py = uv.y * (h - 1) as f32;
         let y0 = (py.max(0.0) as u32).min(h.saturating_sub(2));

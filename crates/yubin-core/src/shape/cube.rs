@@ -153,7 +153,7 @@ impl Cube {
     /// The face with outward normal `sign` e_`axis`.
     #[inline]
     fn face(&self, axis: usize, positive: bool) -> &CubeFace {
-        &self.faces[axis + 3 * usize::from(positive)]
+        &self.faces[face_code(axis, positive) as usize]
     }
 
     /// The ray's entry and exit distances through the cube's slabs, each

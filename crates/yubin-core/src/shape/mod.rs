@@ -108,8 +108,8 @@ pub fn from_params(p: &mut dyn Params) -> Result<BuiltShape, ParamError> {
 /// the shape needs to finish the interaction (barycentrics, local uv).
 // Not padded to 16 bytes: it is returned from the triangle tests in the
 // traversal's inner loop, where an `Option` of 32 bytes cost single-ray
-// closest hits 5 % (`yubin-bench rays`, n = 92, primary rays), more than
-// the whole loads it allows save in the packet hits' interactions.
+// closest hits 5 % (`yubin-bench rays`, n = 92, primary rays); the hit
+// record pads it instead (`scene::WholeHit`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PrimHit {
     /// Ray parameter.

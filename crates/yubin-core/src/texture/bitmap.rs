@@ -55,9 +55,13 @@ impl WrapMode {
     #[inline]
     pub fn index(self, i: i64, n: u32) -> u32 {
         let n = n as i64;
-        // Most lookups land inside: no 64-bit division for them.
+        // Most lookups land inside: no 64-bit division for them (nor for
+        // the column just left of the first, an environment map's seam).
         if (0..n).contains(&i) {
             return i as u32;
+        }
+        if i == -1 && self == WrapMode::Repeat {
+            return (n - 1) as u32;
         }
         let w = match self {
             WrapMode::Repeat => i.rem_euclid(n),
