@@ -470,11 +470,23 @@ impl TileJob<'_> {
                 if self.active.is_some_and(|a| !a[pixel]) {
                     continue;
                 }
-                for index in self.samples.clone() {
-                    batch.push(self.camera_sample(x, y, index, pinhole.is_none()));
-                    if batch.rays.len() == BATCH {
-                        self.trace(&mut batch, &mut out, pinhole);
+                let (fx, fy) = self.full_image_pixel(x, y);
+                let streams = scene.sampler.pixel(fx, fy, self.seed);
+                let mut first = self.samples.start;
+                while first < self.samples.end {
+                    let n = ((self.samples.end - first) as usize).min(8);
+                    let drawn = streams.first_pairs(first, n);
+                    for (j, (&stream, &offset)) in
+                        drawn.streams[..n].iter().zip(&drawn.pairs).enumerate()
+                    {
+                        let index = first + j as u32;
+                        let with_ray = pinhole.is_none();
+                        batch.push(self.camera_sample(x, y, index, (stream, offset), with_ray));
+                        if batch.rays.len() == BATCH {
+                            self.trace(&mut batch, &mut out, pinhole);
+                        }
                     }
+                    first += n as u32;
                 }
             }
         }
@@ -493,29 +505,36 @@ impl TileJob<'_> {
         (x + film.crop_offset[0], y + film.crop_offset[1])
     }
 
-    /// Sample `index` of pixel (`x`, `y`) of the crop window: its sample
-    /// stream, film offset and, when `with_ray`, its camera ray (none when
-    /// the lens stops it, a cat's eye: black; a pinhole's are made by
+    /// Sample `index` of pixel (`x`, `y`) of the crop window, from its
+    /// stream past its film offset and that offset (the stream's first
+    /// pair): with its camera ray when `with_ray` (none when the lens
+    /// stops it, a cat's eye: black; a pinhole's are made by
     /// [`TileJob::pinhole_rays`]).
-    fn camera_sample(&self, x: u32, y: u32, index: u32, with_ray: bool) -> CameraSample {
+    fn camera_sample(
+        &self,
+        x: u32,
+        y: u32,
+        index: u32,
+        (mut stream, offset): (SampleStream, Vec2),
+        with_ray: bool,
+    ) -> CameraSample {
         let scene = self.scene;
-        let (fx, fy) = self.full_image_pixel(x, y);
-        let mut stream = scene.sampler.stream(fx, fy, index, self.seed);
-        let offset = stream.next_2d();
-        let film_p = Vec2::new(fx as f32, fy as f32) + offset;
-        let u_lens = if scene.camera.needs_lens_sample() {
-            stream.next_2d()
-        } else {
-            Vec2::ZERO
-        };
+        let ray = with_ray.then(|| {
+            let (fx, fy) = self.full_image_pixel(x, y);
+            let film_p = Vec2::new(fx as f32, fy as f32) + offset;
+            let u_lens = if scene.camera.needs_lens_sample() {
+                stream.next_2d()
+            } else {
+                Vec2::ZERO
+            };
+            scene.camera.generate_ray(film_p, u_lens)
+        });
         CameraSample {
             x,
             y,
             index,
             offset,
-            ray: with_ray
-                .then(|| scene.camera.generate_ray(film_p, u_lens))
-                .flatten(),
+            ray: ray.flatten(),
             stream,
         }
     }

@@ -181,12 +181,93 @@ impl Sampler {
     /// The stream of sample `index` of pixel `(x, y)` under `seed`.
     #[inline]
     pub fn stream(&self, x: u32, y: u32, index: u32, seed: u32) -> SampleStream {
-        let pattern = match self {
+        self.pixel(x, y, seed).stream(index)
+    }
+
+    /// The streams of pixel `(x, y)`'s samples under `seed`: what they
+    /// share, computed once for all of them.
+    #[inline]
+    pub fn pixel(&self, x: u32, y: u32, seed: u32) -> PixelStreams {
+        let draws_patterns = !matches!(self, Sampler::Independent(_) | Sampler::Sobol(_));
+        PixelStreams {
+            sampler: *self,
+            x,
+            y,
+            seed,
+            // The pattern samplers key each pass anew.
+            key: if draws_patterns { 0 } else { hash3(x, y, seed) },
+        }
+    }
+}
+
+/// Up to eight consecutive samples of one pixel
+/// ([`PixelStreams::first_pairs`]): each one's stream past its first pair,
+/// and that pair.
+#[derive(Clone, Copy, Debug)]
+pub struct FirstPairs {
+    /// The streams, each at its third dimension.
+    pub streams: [SampleStream; 8],
+    /// Each stream's first two values.
+    pub pairs: [Vec2; 8],
+}
+
+/// The sample streams of one pixel ([`Sampler::pixel`]).
+#[derive(Clone, Copy, Debug)]
+pub struct PixelStreams {
+    sampler: Sampler,
+    x: u32,
+    y: u32,
+    seed: u32,
+    /// The pixel's key, for the samplers without patterns.
+    key: u32,
+}
+
+impl PixelStreams {
+    /// The streams of the pixel's samples `first..first + n` (`n` at
+    /// most eight), each after a first [`SampleStream::next_2d`], and
+    /// the pairs those gave: for the independent sampler, the hashes of
+    /// the eight computed side by side (the same values).
+    #[inline]
+    pub fn first_pairs(&self, first: u32, n: usize) -> FirstPairs {
+        debug_assert!(n <= 8);
+        let mut out = FirstPairs {
+            streams: [self.stream(first); 8],
+            pairs: [Vec2::ZERO; 8],
+        };
+        if let Sampler::Independent(_) = self.sampler {
+            let mut keys = [0u32; 8];
+            for (i, k) in keys.iter_mut().enumerate() {
+                *k = independent::sample_key(self.key, first.wrapping_add(i as u32));
+            }
+            let (mut xs, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
+            for ((x, y), &k) in xs.iter_mut().zip(&mut ys).zip(&keys) {
+                (*x, *y) = (independent::sample(k, 0), independent::sample(k, 1));
+            }
+            for (i, (stream, pair)) in out.streams.iter_mut().zip(&mut out.pairs).enumerate() {
+                stream.index = first.wrapping_add(i as u32);
+                stream.sample_key = keys[i];
+                stream.dim = 2;
+                *pair = Vec2::new(xs[i], ys[i]);
+            }
+            return out;
+        }
+        for (i, (stream, pair)) in out.streams[..n].iter_mut().zip(&mut out.pairs).enumerate() {
+            *stream = self.stream(first + i as u32);
+            *pair = stream.next_2d();
+        }
+        out
+    }
+
+    /// The stream of the pixel's sample `index`.
+    #[inline]
+    pub fn stream(&self, index: u32) -> SampleStream {
+        let (x, y, seed) = (self.x, self.y, self.seed);
+        let pattern = match self.sampler {
             Sampler::Independent(_) | Sampler::Sobol(_) => 1,
-            _ => self.sample_count(),
+            s => s.sample_count(),
         };
         let (pixel_key, index) = if pattern == 1 {
-            (hash3(x, y, seed), index)
+            (self.key, index)
         } else {
             // The pass (index div N) keys the pattern's permutations.
             (
@@ -195,11 +276,11 @@ impl Sampler {
             )
         };
         SampleStream {
-            sampler: *self,
+            sampler: self.sampler,
             pixel_key,
             index,
             // Only the samplers that draw independent values need it.
-            sample_key: match self {
+            sample_key: match self.sampler {
                 Sampler::Independent(_) | Sampler::Sobol(_) => {
                     independent::sample_key(pixel_key, index)
                 }
@@ -413,6 +494,27 @@ mod tests {
         }
         out.truncate(401);
         out
+    }
+
+    /// Eight samples drawn together are the samples drawn one by one: the
+    /// same first pairs and, after them, the same streams.
+    #[test]
+    fn first_pairs_equal_single_streams() {
+        for s in every_sampler() {
+            for (first, n) in [(0, 8), (5, 3), (61, 8), (u32::MAX - 2, 3)] {
+                let drawn = s.pixel(7, 11, 19).first_pairs(first, n);
+                for j in 0..n {
+                    let index = first.wrapping_add(j as u32);
+                    let mut single = s.stream(7, 11, index, 19);
+                    assert_eq!(drawn.pairs[j], single.next_2d(), "{s:?} sample {index}");
+                    let mut together = drawn.streams[j];
+                    for _ in 0..9 {
+                        assert_eq!(together.next_2d(), single.next_2d(), "{s:?} sample {index}");
+                        assert_eq!(together.next_1d(), single.next_1d(), "{s:?} sample {index}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
