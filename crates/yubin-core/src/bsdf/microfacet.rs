@@ -413,7 +413,8 @@ impl BeckmannVisibleFrame {
 /// normal (−x̃, −ỹ, 1). Its density is ∝ max(0, 1 − x̃ tan θ) e^{−x̃² − ỹ²}:
 /// ỹ is Gaussian (variance ½, drawn as erfinv(2u − 1)) and x̃ has density ∝ (cot θ − x̃) e^{−x̃²} on
 /// x̃ < cot θ, whose CDF ∝ (√π/2) erfc(−x̃) + (tan θ / 2) e^{−x̃²} is
-/// inverted by safeguarded Newton iteration (Heitz & d'Eon 2014, §4).
+/// inverted by safeguarded Halley iteration (Heitz & d'Eon 2014, §4, who
+/// take Newton steps).
 fn beckmann_visible_slope_x(cos_theta: f32, sin_theta: f32, ux: f32) -> f32 {
     let sqrt_pi = PI.sqrt();
     // Both terms of the CDF are positive (no cancellation at any angle);
@@ -457,9 +458,20 @@ fn beckmann_visible_slope_x(cos_theta: f32, sin_theta: f32, ux: f32) -> f32 {
         } else {
             lo = x;
         }
-        // CDF'(x̃) = (1 − x̃ tan θ) e^{−x̃²}.
-        let deriv = (1.0 - 2.0 * half_tan * x) * gauss;
-        let mut next = x - fx / deriv;
+        // CDF'(x̃) = (1 − x̃ tan θ) e^{−x̃²} and
+        // CDF''(x̃) = −(tan θ + 2x̃ (1 − x̃ tan θ)) e^{−x̃²}. Newton's step,
+        // shortened or lengthened by Halley's correction 1 − f f'' / (2 f'²)
+        // where that is moderate (near the root; it converges in fewer
+        // steps), bare where it is not (far away, in the tails).
+        let slope = 1.0 - 2.0 * half_tan * x;
+        let newton = fx / (slope * gauss);
+        let halley = 1.0 + newton * (half_tan + x * slope) / slope;
+        let step = if (0.5..2.0).contains(&halley) {
+            newton / halley
+        } else {
+            newton
+        };
+        let mut next = x - step;
         if !(next > lo && next < hi) {
             next = 0.5 * (lo + hi);
         }
