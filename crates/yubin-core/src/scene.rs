@@ -725,13 +725,20 @@ impl Scene {
         self.occluded_in_group(&self.groups[0], ray)
     }
 
+    /// Whether the scene has surfaces that let light through (`null`,
+    /// `mask`): then shadow rays may have to cross them.
+    #[inline]
+    pub fn has_pass_through(&self) -> bool {
+        self.has_pass_through
+    }
+
     /// The fraction of light that gets along `ray` (a generalized shadow
     /// ray): 0 when an opaque surface blocks it, else the product of what
     /// the pass-through surfaces it crosses (`null`, `mask`) let through,
     /// 0 as well when it would cross more than `max_crossings` of them.
     /// Scenes without pass-through surfaces pay one any-hit query.
     pub fn transmittance(&self, ray: &Ray, max_crossings: u32) -> f32 {
-        if !self.has_pass_through || max_crossings == 0 {
+        if !self.has_pass_through() || max_crossings == 0 {
             return if self.occluded(ray) { 0.0 } else { 1.0 };
         }
         let mut tr = 1.0;

@@ -468,12 +468,17 @@ pub(crate) fn transmittance_towards(
     dist: f32,
     max_crossings: u32,
 ) -> f32 {
-    let shadow = if dist.is_finite() {
+    scene.transmittance(&shadow_ray_towards(p, n, wi, dist), max_crossings)
+}
+
+/// The shadow ray of [`transmittance_towards`].
+#[inline]
+pub(crate) fn shadow_ray_towards(p: Vec3, n: Vec3, wi: Vec3, dist: f32) -> crate::math::Ray {
+    if dist.is_finite() {
         crate::math::shadow_ray_to(p, n, p + wi * dist)
     } else {
         crate::math::spawn_ray(p, n, wi)
-    };
-    scene.transmittance(&shadow, max_crossings)
+    }
 }
 
 /// Samples the emitter (or the emitting triangle) `light` picked by the

@@ -42,7 +42,8 @@ use super::max_depth_param;
 use super::wide::{self, DiffuseBatch, DiffuseShading, DiffuseSides, DiffuseVertex};
 use super::{
     environment_radiance, light_sample_contribution, sample_chosen_light, sample_light,
-    surface_emission, transmittance_towards, Integrator, LightDraw, PickedLightSample, RayOrigin,
+    shadow_ray_towards, surface_emission, transmittance_towards, Integrator, LightDraw,
+    PickedLightSample, RayOrigin,
 };
 use crate::accel::PACKET_RAYS;
 use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
@@ -142,6 +143,8 @@ impl Integrator for PathIntegrator {
         let mut queued = [(0usize, Vec3::ZERO, Vec3::ZERO, Rgb::ZERO); wide::LANES];
         let mut shading = [DiffuseShading::default(); wide::LANES];
         let mut hits = [None; PACKET_RAYS];
+        // Lanes of this array not asked about keep stale rays.
+        let mut shadow_rays = [Ray::new(Vec3::ZERO, Vec3::Z); wide::LANES];
         while lanes.alive != 0 {
             let next_rays = lanes.paths.each_ref().map(|p| p.ray);
             scene.closest_packet(&next_rays, lanes.alive, &mut hits);
@@ -180,17 +183,21 @@ impl Integrator for PathIntegrator {
                 continue;
             }
             batch.shade(&mut shading);
-            for (&(lane, p, n, reflectance), shading) in
-                queued.iter().zip(&shading).take(batch.len())
+            let entries = (&queued, &shading, batch.len());
+            let blocked = self.shadow_packet(scene, &lanes, entries, &mut shadow_rays);
+            for (i, (&(lane, p, n, reflectance), shading)) in
+                queued.iter().zip(&shading).take(batch.len()).enumerate()
             {
                 let sample = lanes.sample[lane];
                 let path = &mut lanes.paths[lane];
+                let seen = blocked
+                    .map(|(asked, blocked)| (asked >> i & 1 != 0).then_some(blocked >> i & 1 == 0));
                 if !self.finish_diffuse(
                     scene,
                     path,
                     (p, n),
                     reflectance,
-                    shading,
+                    (shading, seen.flatten()),
                     &mut samplers[sample],
                 ) {
                     lanes.finish(lane, rays, out);
@@ -436,6 +443,37 @@ impl PathIntegrator {
         Some(reflectance)
     }
 
+    /// The shadow rays of the batch's light samples traced together
+    /// ([`Scene::occluded_packet`]), where each is a plain any-hit query
+    /// (no pass-through surface in the scene, or none it may cross):
+    /// the entries asked and those blocked, a bit each; `None` when there
+    /// are fewer than two to ask (one is traced alone as it is finished).
+    /// `rays` holds the shadow rays (its other lanes are ignored).
+    #[allow(clippy::type_complexity)]
+    fn shadow_packet(
+        &self,
+        scene: &Scene,
+        lanes: &Lanes,
+        (queued, shading, len): (
+            &[(usize, Vec3, Vec3, Rgb); wide::LANES],
+            &[DiffuseShading; wide::LANES],
+            usize,
+        ),
+        rays: &mut [Ray; wide::LANES],
+    ) -> Option<(u32, u32)> {
+        let mut asked = 0u32;
+        for (i, (&(lane, p, n, _), shading)) in queued.iter().zip(shading).take(len).enumerate() {
+            let Some(ls) = &shading.light else { continue };
+            let crossings = self.crossings(lanes.paths[lane].depth);
+            if scene.has_pass_through() && crossings > 0 {
+                continue;
+            }
+            rays[i] = shadow_ray_towards(p, n, ls.wi, ls.dist);
+            asked |= 1 << i;
+        }
+        (asked.count_ones() > 1).then(|| (asked, scene.occluded_packet(rays, asked)))
+    }
+
     /// The rest of a queued vertex's bounce, from its wide shading: the
     /// light sample's shadow ray and contribution, then
     /// [`PathIntegrator::follow`] along the BSDF sample. `p` and `n` are
@@ -449,12 +487,15 @@ impl PathIntegrator {
         path: &mut Path,
         (p, n): (Vec3, Vec3),
         reflectance: Rgb,
-        shading: &DiffuseShading,
+        (shading, seen): (&DiffuseShading, Option<bool>),
         sampler: &mut SampleStream,
     ) -> bool {
         if let Some(ls) = &shading.light {
             let crossings = self.crossings(path.depth);
-            let tr = transmittance_towards(scene, p, n, ls.wi, ls.dist, crossings);
+            let tr = match seen {
+                Some(seen) => f32::from(u8::from(seen)),
+                None => transmittance_towards(scene, p, n, ls.wi, ls.dist, crossings),
+            };
             if tr > 0.0 {
                 path.l += path.beta * (ls.f_le * (tr * ls.w / ls.pdf));
             }

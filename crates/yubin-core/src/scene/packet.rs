@@ -123,6 +123,37 @@ fn small_tree_packet(
     traverse(scene, rays, active, out)
 }
 
+/// Which rays of a packet something blocks, in a small tree
+/// ([`Scene::occluded_packet`]), compiled as [`small_tree_packet`] is.
+#[allow(dead_code)]
+#[multiversion(targets("x86_64+avx2+fma"))]
+fn small_tree_occluded(scene: &Scene, rays: &[Ray; PACKET_RAYS], active: u32) -> u32 {
+    #[target_cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    #[inherit_target]
+    #[inline]
+    fn traverse(scene: &Scene, rays: &[Ray; PACKET_RAYS], active: u32) -> u32 {
+        let kernels = PacketKernels {
+            boxes: |l: &PacketLanes, n: &Node, c, t| crate::accel::hit_child_avx2(l, n, c, t),
+            triangles: |r: &WatertightRay, p: &TrianglePackets, s, c, t| {
+                r.intersect_packet_by(p, s, c, t, |r, v, t| crate::shape::lane_tests_avx2(r, v, t))
+            },
+            shapes: |s: &Shape, p: &RayPacket, t| crate::shape::shape_blocks_avx2(s, p, t),
+        };
+        scene.small_tree_occluded_by(rays, active, &kernels)
+    }
+    #[target_cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+    #[inline(always)]
+    fn traverse(scene: &Scene, rays: &[Ray; PACKET_RAYS], active: u32) -> u32 {
+        let kernels = PacketKernels {
+            boxes: PacketLanes::hit_child,
+            triangles: WatertightRay::intersect_packet,
+            shapes: |s: &Shape, p: &RayPacket, t| s.intersect_packet(p, t).map(|(hit, _, _)| hit),
+        };
+        scene.small_tree_occluded_by(rays, active, &kernels)
+    }
+    traverse(scene, rays, active)
+}
+
 /// The tests packet traversal runs: a child box against the packet's
 /// lanes, a leaf's triangles against one lane's ray, and a shape against
 /// the packet (`None` for shapes without an eight-lane test).
@@ -154,6 +185,112 @@ impl Scene {
             return;
         }
         small_tree_packet(self, rays, active, out)
+    }
+
+    /// The rays of `rays` whose bit is set in `active` that something
+    /// blocks (a bit each): for each the answer [`Scene::occluded`] gives.
+    /// In a small tree the eight shadow rays traverse it together, as
+    /// [`Scene::closest_packet`]'s rays do, a lane leaving the traversal
+    /// once it is blocked.
+    pub fn occluded_packet(&self, rays: &[Ray; PACKET_RAYS], active: u32) -> u32 {
+        if !self.groups[0].bvh.takes_packets() {
+            return lanes_of(active)
+                .filter(|&l| self.occluded(&rays[l]))
+                .fold(0, |m, l| m | 1 << l);
+        }
+        small_tree_occluded(self, rays, active)
+    }
+
+    /// [`Scene::occluded_packet`] in a small tree, with these tests.
+    #[inline(always)]
+    fn small_tree_occluded_by<B, T, S>(
+        &self,
+        rays: &[Ray; PACKET_RAYS],
+        active: u32,
+        kernels: &PacketKernels<B, T, S>,
+    ) -> u32
+    where
+        B: Fn(&PacketLanes, &Node, usize, f32x8) -> u32,
+        T: Fn(&WatertightRay, &TrianglePackets, usize, usize, f32) -> Option<(usize, PrimHit)>,
+        S: Fn(&Shape, &RayPacket, f32x8) -> Option<u32>,
+    {
+        let g = &self.groups[0];
+        let packet = RayPacket::new(rays);
+        let lanes = PacketLanes::new(&packet);
+        let t_max = rays.map(|r| r.t_max);
+        let ray_t_max = f32x8::new(t_max);
+        let mut blocked = 0u32;
+        let mut sheared: [Option<WatertightRay>; PACKET_RAYS] = [None; PACKET_RAYS];
+        g.bvh.packet_leaves(
+            &lanes,
+            active,
+            ray_t_max,
+            &kernels.boxes,
+            |start, count, mask| {
+                let mut open = mask & !blocked;
+                if open != 0 && g.tris.has_triangles(start) {
+                    for lane in lanes_of(open) {
+                        let r = &rays[lane];
+                        let wr = sheared[lane].get_or_insert_with(|| {
+                            WatertightRay::from_vectors(&r.vectors(), r.t_min)
+                        });
+                        if (kernels.triangles)(wr, &g.tris, start, count, t_max[lane]).is_some() {
+                            blocked |= 1 << lane;
+                        }
+                    }
+                    open &= !blocked;
+                }
+                if !g.only_triangles {
+                    for item in &g.items[start..start + count] {
+                        if open == 0 {
+                            break;
+                        }
+                        let shapes = &kernels.shapes;
+                        blocked |= self.item_blocks_packet(*item, &packet, rays, open, shapes);
+                        open &= !blocked;
+                    }
+                }
+                // A blocked lane's interval is emptied: its box tests fail.
+                let cut: [f32; PACKET_RAYS] = std::array::from_fn(|l| {
+                    if blocked >> l & 1 != 0 {
+                        f32::NEG_INFINITY
+                    } else {
+                        t_max[l]
+                    }
+                });
+                f32x8::new(cut)
+            },
+        );
+        blocked
+    }
+
+    /// The lanes `mask` of `packet` (whose rays are `rays`) that `item`
+    /// (not a triangle) blocks.
+    #[inline(always)]
+    fn item_blocks_packet(
+        &self,
+        item: Item,
+        packet: &RayPacket,
+        rays: &[Ray; PACKET_RAYS],
+        mask: u32,
+        shape_test: impl Fn(&Shape, &RayPacket, f32x8) -> Option<u32>,
+    ) -> u32 {
+        let each = |blocks: &dyn Fn(&Ray) -> bool| {
+            lanes_of(mask)
+                .filter(|&l| blocks(&rays[l]))
+                .fold(0, |m, l| m | 1 << l)
+        };
+        match item {
+            Item::Triangle { .. } | Item::Empty => 0,
+            Item::Prim { shape, prim } => {
+                let shape_ref = &self.shapes[shape as usize];
+                match shape_test(shape_ref, packet, f32x8::new(rays.map(|r| r.t_max))) {
+                    Some(hit) => hit & mask,
+                    None => each(&|r| shape_ref.intersect(&self.meshes, prim, r).is_some()),
+                }
+            }
+            Item::Instance(inst) => each(&|r| self.instance_occludes(inst, r)),
+        }
     }
 
     /// [`Scene::closest_packet`] in a small tree, with these tests.
@@ -377,6 +514,33 @@ mod tests {
             hits += want.map_or(0, |(hit, _)| hit.count_ones());
         }
         assert!(hits > 2000, "{hits} hits");
+    }
+
+    /// Packet occlusion answers as single rays do, lane by lane, in a
+    /// small tree (spheres, rectangles, disks, cubes, triangles and an
+    /// instanced group) and through the large-tree fallback.
+    #[test]
+    fn packets_find_the_single_rays_blockers() {
+        let scene = mixed_scene();
+        assert!(scene.groups[0].bvh.takes_packets());
+        let mut rng = Pcg32::new(4, 0);
+        let (mut blocked, mut open) = (0, 0);
+        for _ in 0..3000 {
+            let rays = random_rays(&mut rng);
+            let active = rng.next_u32() & 0xff;
+            let got = scene.occluded_packet(&rays, active);
+            for (lane, ray) in rays.iter().enumerate() {
+                let expected = active >> lane & 1 != 0 && scene.occluded(ray);
+                assert_eq!(got >> lane & 1 != 0, expected, "lane {lane} of {rays:?}");
+                if active >> lane & 1 != 0 {
+                    *if expected { &mut blocked } else { &mut open } += 1;
+                }
+            }
+        }
+        assert!(
+            blocked > 1000 && open > 1000,
+            "{blocked} blocked, {open} open"
+        );
     }
 
     #[test]

@@ -52,6 +52,21 @@ pub(crate) fn shape_packet_avx2(
     }
 }
 
+/// The lanes of `rays` that `shape` blocks within `t_max` (`None` for
+/// shapes without an eight-lane test): [`shape_packet_avx2`]'s hits, for
+/// shadow rays, which need no distance.
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) fn shape_blocks_avx2(shape: &Shape, rays: &RayPacket, t_max: f32x8) -> Option<u32> {
+    Some(match shape {
+        Shape::Sphere(s) => sphere(s, rays, reg(t_max)).0,
+        Shape::Rectangle(r) => rectangle(r, rays, reg(t_max)).0,
+        Shape::Disk(d) => disk(d, rays, reg(t_max)).0,
+        Shape::Cube(c) => cube(c, rays, reg(t_max)).0,
+        Shape::Mesh(_) | Shape::Cylinder(_) => return None,
+    })
+}
+
 /// [`Sphere::intersect_packet`].
 #[target_feature(enable = "avx2")]
 #[inline]

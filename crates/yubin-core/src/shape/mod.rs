@@ -22,7 +22,7 @@ mod sphere;
 mod triangle;
 
 #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
-pub(crate) use avx2::shape_packet_avx2;
+pub(crate) use avx2::{shape_blocks_avx2, shape_packet_avx2};
 pub use cube::Cube;
 pub use cylinder::Cylinder;
 pub use disk::Disk;
@@ -466,6 +466,13 @@ pub(crate) fn shape_packet_avx2(
     t_max: f32x8,
 ) -> Option<(u32, f32x8, [f32x8; 2])> {
     shape.intersect_packet(rays, t_max)
+}
+
+/// The hits of [`shape_packet_avx2`] alone, in a build for AVX2.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+#[inline(always)]
+pub(crate) fn shape_blocks_avx2(shape: &Shape, rays: &RayPacket, t_max: f32x8) -> Option<u32> {
+    shape.intersect_packet(rays, t_max).map(|(hit, _, _)| hit)
 }
 
 /// Bounds of the object-space square [-1, 1]² at z = 0 under `to_world`.
