@@ -391,39 +391,77 @@ pub(crate) fn sample_light(
     light_count_ratio: f32,
     max_crossings: u32,
 ) -> Rgb {
+    sample_light_unshadowed(scene, si, bsdf, wo_local, sampler, light_count_ratio)
+        .map_or(Rgb::ZERO, |l| l.shadowed(scene, max_crossings))
+}
+
+/// [`sample_light`] up to its shadow ray: the light sample's
+/// contribution should nothing block it, and its shadow ray (`None` when
+/// it contributes nothing anyway).
+#[inline]
+pub(crate) fn sample_light_unshadowed(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    bsdf: &crate::bsdf::Bsdf,
+    wo_local: Vec3,
+    sampler: &mut SampleStream,
+    light_count_ratio: f32,
+) -> Option<UnshadowedSample> {
     let draw = LightDraw::draw(sampler);
-    let Some((light, pick_pdf)) = scene.pick_light(draw.u_pick, si.p, si.n) else {
-        return Rgb::ZERO;
-    };
-    let Some(ls) = sample_chosen_light(scene, light, si.p, draw.u) else {
-        return Rgb::ZERO;
-    };
+    let (light, pick_pdf) = scene.pick_light(draw.u_pick, si.p, si.n)?;
+    let ls = sample_chosen_light(scene, light, si.p, draw.u)?;
     let picked = PickedLightSample {
         ls,
         pick_pdf,
         emitter: light.emitter,
     };
-    light_sample_contribution(
-        scene,
-        si,
-        bsdf,
-        wo_local,
-        &picked,
-        light_count_ratio,
-        max_crossings,
-    )
+    light_sample_unshadowed(scene, si, bsdf, wo_local, &picked, light_count_ratio)
 }
 
-/// [`sample_light`]'s contribution for the light sample `picked`.
-pub(crate) fn light_sample_contribution(
+/// A light sample's contribution before its shadow ray is traced
+/// ([`light_sample_unshadowed`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct UnshadowedSample {
+    /// BSDF value times radiance.
+    f_le: Rgb,
+    /// MIS weight.
+    w: f32,
+    /// Light density (choice included).
+    light_pdf: f32,
+    /// The shadow ray towards the sample.
+    pub shadow: crate::math::Ray,
+}
+
+impl UnshadowedSample {
+    /// The contribution when the fraction `tr` of the light gets through.
+    #[inline]
+    pub fn through(&self, tr: f32) -> Rgb {
+        if tr <= 0.0 {
+            return Rgb::ZERO;
+        }
+        self.f_le * (tr * self.w / self.light_pdf)
+    }
+
+    /// The contribution, its shadow ray traced through at most
+    /// `max_crossings` pass-through surfaces.
+    #[inline]
+    pub fn shadowed(&self, scene: &Scene, max_crossings: u32) -> Rgb {
+        self.through(scene.transmittance(&self.shadow, max_crossings))
+    }
+}
+
+/// The light sample `picked` at `si` with MIS against the BSDF, as
+/// [`sample_light`] weighs it, up to its shadow ray (`None` when the BSDF
+/// reflects nothing towards the light).
+#[inline]
+pub(crate) fn light_sample_unshadowed(
     scene: &Scene,
     si: &SurfaceInteraction,
     bsdf: &crate::bsdf::Bsdf,
     wo_local: Vec3,
     picked: &PickedLightSample,
     light_count_ratio: f32,
-    max_crossings: u32,
-) -> Rgb {
+) -> Option<UnshadowedSample> {
     use crate::bsdf::{BsdfContext, BsdfModel};
     let ls = &picked.ls;
     let bsdf_ctx = BsdfContext::default();
@@ -440,11 +478,7 @@ pub(crate) fn light_sample_contribution(
         )
     };
     if f == Rgb::ZERO {
-        return Rgb::ZERO;
-    }
-    let tr = transmittance_towards(scene, si.p, si.n, ls.wi, ls.dist, max_crossings);
-    if tr <= 0.0 {
-        return Rgb::ZERO;
+        return None;
     }
     let light_pdf = ls.pdf * picked.pick_pdf;
     let w = if mis {
@@ -452,26 +486,17 @@ pub(crate) fn light_sample_contribution(
     } else {
         1.0
     };
-    f * ls.radiance * (tr * w / light_pdf)
+    Some(UnshadowedSample {
+        f_le: f * ls.radiance,
+        w,
+        light_pdf,
+        shadow: shadow_ray_towards(si.p, si.n, ls.wi, ls.dist),
+    })
 }
 
-/// The transmittance of the shadow ray from the surface point `p`
-/// (geometric normal `n`) towards a light sample `dist` away along `wi`
-/// (infinitely far: a light at infinity), through at most
-/// `max_crossings` pass-through surfaces.
-#[inline]
-pub(crate) fn transmittance_towards(
-    scene: &Scene,
-    p: Vec3,
-    n: Vec3,
-    wi: Vec3,
-    dist: f32,
-    max_crossings: u32,
-) -> f32 {
-    scene.transmittance(&shadow_ray_towards(p, n, wi, dist), max_crossings)
-}
-
-/// The shadow ray of [`transmittance_towards`].
+/// The shadow ray from the surface point `p` (geometric normal `n`)
+/// towards a light sample `dist` away along `wi` (infinitely far: a
+/// light at infinity).
 #[inline]
 pub(crate) fn shadow_ray_towards(p: Vec3, n: Vec3, wi: Vec3, dist: f32) -> crate::math::Ray {
     if dist.is_finite() {

@@ -41,9 +41,9 @@
 use super::max_depth_param;
 use super::wide::{self, DiffuseBatch, DiffuseShading, DiffuseSides, DiffuseVertex};
 use super::{
-    environment_radiance, light_sample_contribution, sample_chosen_light, sample_light,
-    shadow_ray_towards, surface_emission, transmittance_towards, Integrator, LightDraw,
-    PickedLightSample, RayOrigin,
+    environment_radiance, light_sample_unshadowed, sample_chosen_light, sample_light_unshadowed,
+    shadow_ray_towards, surface_emission, Integrator, LightDraw, PickedLightSample, RayOrigin,
+    UnshadowedSample,
 };
 use crate::accel::PACKET_RAYS;
 use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
@@ -143,12 +143,14 @@ impl Integrator for PathIntegrator {
         let mut queued = [(0usize, Vec3::ZERO, Vec3::ZERO, Rgb::ZERO); wide::LANES];
         let mut shading = [DiffuseShading::default(); wide::LANES];
         let mut hits = [None; PACKET_RAYS];
-        // Lanes of this array not asked about keep stale rays.
-        let mut shadow_rays = [Ray::new(Vec3::ZERO, Vec3::Z); wide::LANES];
+        let mut shadows = Shadows::new();
         while lanes.alive != 0 {
             let next_rays = lanes.paths.each_ref().map(|p| p.ray);
             scene.closest_packet(&next_rays, lanes.alive, &mut hits);
             batch.clear();
+            // The lanes whose path ends at this bounce, handed on once
+            // their light samples' shadow rays are traced.
+            let mut ending = 0u32;
             for (lane, &hit) in hits.iter().enumerate() {
                 if lanes.alive >> lane & 1 == 0 {
                     continue;
@@ -158,51 +160,109 @@ impl Integrator for PathIntegrator {
                 let sampler = &mut samplers[sample];
                 let Some(hit) = hit else {
                     self.escape(scene, path);
-                    lanes.finish(lane, rays, out);
+                    ending |= 1 << lane;
                     continue;
                 };
                 let si = scene.interaction_at(&path.ray, &hit);
+                let shadows = (&mut shadows, lane);
                 let goes_on = self.land(scene, path, &si)
                     && match scene.diffuse_sides_of(si.shape) {
                         Some(sides) => {
                             let i = batch.len();
-                            let queued_now =
-                                self.queue_diffuse(scene, path, &si, sides, sampler, &mut batch);
+                            let queued_now = self.queue_diffuse(
+                                scene, path, &si, sides, sampler, &mut batch, shadows,
+                            );
                             if let Some(reflectance) = queued_now {
                                 queued[i] = (lane, si.p, si.n, reflectance);
                             }
                             queued_now.is_some()
                         }
-                        None => self.scatter(scene, path, &si, sampler),
+                        None => self.scatter(scene, path, &si, sampler, Some(shadows)),
                     };
                 if !goes_on {
-                    lanes.finish(lane, rays, out);
+                    ending |= 1 << lane;
                 }
             }
-            if batch.len() == 0 {
-                continue;
-            }
-            batch.shade(&mut shading);
-            let entries = (&queued, &shading, batch.len());
-            let blocked = self.shadow_packet(scene, &lanes, entries, &mut shadow_rays);
-            for (i, (&(lane, p, n, reflectance), shading)) in
-                queued.iter().zip(&shading).take(batch.len()).enumerate()
-            {
-                let sample = lanes.sample[lane];
-                let path = &mut lanes.paths[lane];
-                let seen = blocked
-                    .map(|(asked, blocked)| (asked >> i & 1 != 0).then_some(blocked >> i & 1 == 0));
-                if !self.finish_diffuse(
-                    scene,
-                    path,
-                    (p, n),
-                    reflectance,
-                    (shading, seen.flatten()),
-                    &mut samplers[sample],
-                ) {
-                    lanes.finish(lane, rays, out);
+            if batch.len() != 0 {
+                batch.shade(&mut shading);
+                for (&(lane, p, n, reflectance), shading) in
+                    queued.iter().zip(&shading).take(batch.len())
+                {
+                    let sample = lanes.sample[lane];
+                    let path = &mut lanes.paths[lane];
+                    if !self.finish_diffuse(
+                        scene,
+                        path,
+                        (p, n),
+                        reflectance,
+                        shading,
+                        &mut samplers[sample],
+                        (&mut shadows, lane),
+                    ) {
+                        ending |= 1 << lane;
+                    }
                 }
             }
+            shadows.trace(scene, &mut lanes.paths);
+            for lane in (0..PACKET_RAYS).filter(|l| ending >> l & 1 != 0) {
+                lanes.finish(lane, rays, out);
+            }
+        }
+    }
+}
+
+/// The light samples of a packet's bounce whose shadow rays are still to
+/// be traced, at most one per lane: traced together
+/// ([`Scene::occluded_packet`]) before any path goes on, each adds its
+/// contribution to its path unless something blocks it. Only plain
+/// any-hit queries wait here (see [`Shadows::takes`]).
+struct Shadows {
+    rays: [Ray; PACKET_RAYS],
+    /// Per entry: its lane and what it adds (throughput included).
+    lanes: [usize; PACKET_RAYS],
+    adds: [Rgb; PACKET_RAYS],
+    len: usize,
+}
+
+impl Shadows {
+    fn new() -> Self {
+        Self {
+            rays: [Ray::new(Vec3::ZERO, Vec3::Z); PACKET_RAYS],
+            lanes: [0; PACKET_RAYS],
+            adds: [Rgb::ZERO; PACKET_RAYS],
+            len: 0,
+        }
+    }
+
+    /// Whether a shadow ray that may cross `crossings` pass-through
+    /// surfaces is a plain any-hit query, which may wait here.
+    #[inline]
+    fn takes(scene: &Scene, crossings: u32) -> bool {
+        !scene.has_pass_through() || crossings == 0
+    }
+
+    /// Queues `add` for `lane`'s path, due unless something blocks `ray`.
+    #[inline]
+    fn push(&mut self, lane: usize, add: Rgb, ray: Ray) {
+        let i = self.len;
+        self.rays[i] = ray;
+        self.lanes[i] = lane;
+        self.adds[i] = add;
+        self.len += 1;
+    }
+
+    /// Traces the waiting shadow rays and adds what gets through to the
+    /// paths. The lanes of `rays` past `len` keep stale rays, unread.
+    fn trace(&mut self, scene: &Scene, paths: &mut [Path; PACKET_RAYS]) {
+        let n = self.len;
+        self.len = 0;
+        let blocked = match n {
+            0 => return,
+            1 => u32::from(scene.occluded(&self.rays[0])),
+            _ => scene.occluded_packet(&self.rays, (1 << n) - 1),
+        };
+        for i in (0..n).filter(|i| blocked >> i & 1 == 0) {
+            paths[self.lanes[i]].l += self.adds[i];
         }
     }
 }
@@ -296,7 +356,7 @@ impl PathIntegrator {
             return false;
         };
         let si = scene.interaction_at(&path.ray, &hit);
-        self.land(scene, path, &si) && self.scatter(scene, path, &si, sampler)
+        self.land(scene, path, &si) && self.scatter(scene, path, &si, sampler, None)
     }
 
     /// The emission from infinity that the path's ray finds when it
@@ -332,19 +392,23 @@ impl PathIntegrator {
     }
 
     /// Next-event estimation and the BSDF sample at `si`, then
-    /// [`PathIntegrator::follow`]. False when the path ends.
+    /// [`PathIntegrator::follow`]; the light sample's shadow ray waits in
+    /// `shadows` (with the path's lane) where it may. False when the path
+    /// ends.
     fn scatter(
         &self,
         scene: &Scene,
         path: &mut Path,
         si: &SurfaceInteraction,
         sampler: &mut SampleStream,
+        shadows: Option<(&mut Shadows, usize)>,
     ) -> bool {
         let bsdf = scene.bsdf_of(si.shape);
         let wo = si.to_local(si.wo);
         if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) {
-            let crossings = self.crossings(path.depth);
-            path.l += path.beta * sample_light(scene, si, bsdf, wo, sampler, 1.0, crossings);
+            if let Some(l) = sample_light_unshadowed(scene, si, bsdf, wo, sampler, 1.0) {
+                self.add_light_sample(scene, path, &l, shadows);
+            }
         }
         let u1 = sampler.next_1d();
         let u2 = sampler.next_2d();
@@ -354,6 +418,26 @@ impl PathIntegrator {
         };
         let wi = si.to_world(bs.wi);
         self.follow(path, si.p, si.n, &bs, wi, sampler)
+    }
+
+    /// Adds the light sample `l` to `path`: its shadow ray traced now, or
+    /// queued in `shadows` (with the path's lane) to be traced with the
+    /// bounce's others where it is a plain any-hit query.
+    #[inline]
+    fn add_light_sample(
+        &self,
+        scene: &Scene,
+        path: &mut Path,
+        l: &UnshadowedSample,
+        shadows: Option<(&mut Shadows, usize)>,
+    ) {
+        let crossings = self.crossings(path.depth);
+        match shadows {
+            Some((queue, lane)) if Shadows::takes(scene, crossings) => {
+                queue.push(lane, path.beta * l.through(1.0), l.shadow);
+            }
+            _ => path.l += path.beta * l.shadowed(scene, crossings),
+        }
     }
 
     /// The path goes on from the surface point `p` (geometric normal `n`)
@@ -394,8 +478,8 @@ impl PathIntegrator {
     /// draws its numbers, and queues in `batch` what the wide shading
     /// computes (the BSDF sample, and the light sample when the chosen
     /// light is a rectangle's constant area light; other light samples
-    /// are taken here). The reflectance it queued, or `None` when the
-    /// path ends here.
+    /// are taken here, their shadow rays queued in `shadows`). The
+    /// reflectance it queued, or `None` when the path ends here.
     #[inline]
     fn queue_diffuse(
         &self,
@@ -405,6 +489,7 @@ impl PathIntegrator {
         sides: DiffuseSides,
         sampler: &mut SampleStream,
         batch: &mut DiffuseBatch,
+        shadows: (&mut Shadows, usize),
     ) -> Option<Rgb> {
         let wo = si.to_local(si.wo);
         let draw = LightDraw::draw(sampler);
@@ -427,9 +512,9 @@ impl PathIntegrator {
                     emitter: choice.emitter,
                 };
                 let bsdf = scene.bsdf_of(si.shape);
-                let crossings = self.crossings(path.depth);
-                path.l += path.beta
-                    * light_sample_contribution(scene, si, bsdf, wo, &picked, 1.0, crossings);
+                if let Some(l) = light_sample_unshadowed(scene, si, bsdf, wo, &picked, 1.0) {
+                    self.add_light_sample(scene, path, &l, Some(shadows));
+                }
             }
         }
         batch.push(&DiffuseVertex {
@@ -443,42 +528,11 @@ impl PathIntegrator {
         Some(reflectance)
     }
 
-    /// The shadow rays of the batch's light samples traced together
-    /// ([`Scene::occluded_packet`]), where each is a plain any-hit query
-    /// (no pass-through surface in the scene, or none it may cross):
-    /// the entries asked and those blocked, a bit each; `None` when there
-    /// are fewer than two to ask (one is traced alone as it is finished).
-    /// `rays` holds the shadow rays (its other lanes are ignored).
-    #[allow(clippy::type_complexity)]
-    fn shadow_packet(
-        &self,
-        scene: &Scene,
-        lanes: &Lanes,
-        (queued, shading, len): (
-            &[(usize, Vec3, Vec3, Rgb); wide::LANES],
-            &[DiffuseShading; wide::LANES],
-            usize,
-        ),
-        rays: &mut [Ray; wide::LANES],
-    ) -> Option<(u32, u32)> {
-        let mut asked = 0u32;
-        for (i, (&(lane, p, n, _), shading)) in queued.iter().zip(shading).take(len).enumerate() {
-            let Some(ls) = &shading.light else { continue };
-            let crossings = self.crossings(lanes.paths[lane].depth);
-            if scene.has_pass_through() && crossings > 0 {
-                continue;
-            }
-            rays[i] = shadow_ray_towards(p, n, ls.wi, ls.dist);
-            asked |= 1 << i;
-        }
-        (asked.count_ones() > 1).then(|| (asked, scene.occluded_packet(rays, asked)))
-    }
-
     /// The rest of a queued vertex's bounce, from its wide shading: the
-    /// light sample's shadow ray and contribution, then
-    /// [`PathIntegrator::follow`] along the BSDF sample. `p` and `n` are
-    /// the vertex's point and geometric normal, `reflectance` its BSDF
-    /// sample's weight. False when the path ends.
+    /// light sample's contribution (its shadow ray queued in `shadows`
+    /// where it may wait), then [`PathIntegrator::follow`] along the BSDF
+    /// sample. `p` and `n` are the vertex's point and geometric normal,
+    /// `reflectance` its BSDF sample's weight. False when the path ends.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn finish_diffuse(
@@ -487,18 +541,18 @@ impl PathIntegrator {
         path: &mut Path,
         (p, n): (Vec3, Vec3),
         reflectance: Rgb,
-        (shading, seen): (&DiffuseShading, Option<bool>),
+        shading: &DiffuseShading,
         sampler: &mut SampleStream,
+        shadows: (&mut Shadows, usize),
     ) -> bool {
         if let Some(ls) = &shading.light {
-            let crossings = self.crossings(path.depth);
-            let tr = match seen {
-                Some(seen) => f32::from(u8::from(seen)),
-                None => transmittance_towards(scene, p, n, ls.wi, ls.dist, crossings),
+            let l = UnshadowedSample {
+                f_le: ls.f_le,
+                w: ls.w,
+                light_pdf: ls.pdf,
+                shadow: shadow_ray_towards(p, n, ls.wi, ls.dist),
             };
-            if tr > 0.0 {
-                path.l += path.beta * (ls.f_le * (tr * ls.w / ls.pdf));
-            }
+            self.add_light_sample(scene, path, &l, Some(shadows));
         }
         let Some((wi, pdf)) = shading.bsdf else {
             return false;
