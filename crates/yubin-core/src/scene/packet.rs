@@ -226,6 +226,7 @@ impl Scene {
             active,
             ray_t_max,
             &kernels.boxes,
+            #[inline(always)]
             |start, count, mask| {
                 let mut open = mask & !blocked;
                 if open != 0 && g.tris.has_triangles(start) {
