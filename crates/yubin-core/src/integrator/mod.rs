@@ -463,20 +463,34 @@ pub(crate) fn light_sample_unshadowed(
     light_count_ratio: f32,
 ) -> Option<UnshadowedSample> {
     use crate::bsdf::{BsdfContext, BsdfModel};
+    let ctx = BsdfContext::default();
+    let m = &scene.materials;
+    light_sample_unshadowed_by(scene, si, picked, light_count_ratio, |wi_local, mis| {
+        if mis {
+            bsdf.eval_pdf(m, &ctx, si, wo_local, wi_local)
+        } else {
+            (bsdf.eval(m, &ctx, si, wo_local, wi_local), 0.0)
+        }
+    })
+}
+
+/// [`light_sample_unshadowed`] with the BSDF's value and density (0 when
+/// the second argument, whether MIS weighs the sample, is false) towards
+/// a local direction given by `eval`.
+#[inline(always)]
+pub(crate) fn light_sample_unshadowed_by(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    picked: &PickedLightSample,
+    light_count_ratio: f32,
+    eval: impl FnOnce(Vec3, bool) -> (Rgb, f32),
+) -> Option<UnshadowedSample> {
     let ls = &picked.ls;
-    let bsdf_ctx = BsdfContext::default();
     let wi_local = si.to_local(ls.wi);
     // Lights hidden from indirect rays cannot be found by BSDF sampling:
     // light sampling is then their only strategy, and needs no BSDF density.
     let mis = !ls.is_delta && scene.emitter_options[picked.emitter as usize].visible_indirect;
-    let (f, bsdf_pdf) = if mis {
-        bsdf.eval_pdf(&scene.materials, &bsdf_ctx, si, wo_local, wi_local)
-    } else {
-        (
-            bsdf.eval(&scene.materials, &bsdf_ctx, si, wo_local, wi_local),
-            0.0,
-        )
-    };
+    let (f, bsdf_pdf) = eval(wi_local, mis);
     if f == Rgb::ZERO {
         return None;
     }

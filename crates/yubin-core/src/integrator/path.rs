@@ -41,7 +41,7 @@
 use super::max_depth_param;
 use super::wide::{self, DiffuseBatch, DiffuseShading, DiffuseSides, DiffuseVertex};
 use super::{
-    environment_radiance, light_sample_unshadowed, sample_chosen_light, sample_light_unshadowed,
+    environment_radiance, light_sample_unshadowed_by, sample_chosen_light, sample_light_unshadowed,
     shadow_ray_towards, surface_emission, Integrator, LightDraw, PickedLightSample, RayOrigin,
     UnshadowedSample,
 };
@@ -209,6 +209,14 @@ impl Integrator for PathIntegrator {
             }
         }
     }
+}
+
+/// Adds the light sample `l` to `path`, its shadow ray traced now through
+/// at most `crossings` pass-through surfaces (out of line: the queued
+/// samples are the common case).
+#[inline(never)]
+fn add_shadowed(scene: &Scene, path: &mut Path, l: &UnshadowedSample, crossings: u32) {
+    path.l += path.beta * l.shadowed(scene, crossings);
 }
 
 /// The light samples of a packet's bounce whose shadow rays are still to
@@ -423,7 +431,7 @@ impl PathIntegrator {
     /// Adds the light sample `l` to `path`: its shadow ray traced now, or
     /// queued in `shadows` (with the path's lane) to be traced with the
     /// bounce's others where it is a plain any-hit query.
-    #[inline]
+    #[inline(always)]
     fn add_light_sample(
         &self,
         scene: &Scene,
@@ -436,7 +444,7 @@ impl PathIntegrator {
             Some((queue, lane)) if Shadows::takes(scene, crossings) => {
                 queue.push(lane, path.beta * l.through(1.0), l.shadow);
             }
-            _ => path.l += path.beta * l.shadowed(scene, crossings),
+            _ => add_shadowed(scene, path, l, crossings),
         }
     }
 
@@ -511,8 +519,10 @@ impl PathIntegrator {
                     pick_pdf,
                     emitter: choice.emitter,
                 };
-                let bsdf = scene.bsdf_of(si.shape);
-                if let Some(l) = light_sample_unshadowed(scene, si, bsdf, wo, &picked, 1.0) {
+                // The BSDF as `diffuse` (mirrored by `twosided`) evaluates
+                // it, from the reflectance read above.
+                let eval = |wi: Vec3, _| DiffuseSides::eval_pdf(reflectance, flip, wi);
+                if let Some(l) = light_sample_unshadowed_by(scene, si, &picked, 1.0, eval) {
                     self.add_light_sample(scene, path, &l, Some(shadows));
                 }
             }

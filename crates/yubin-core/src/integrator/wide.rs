@@ -105,6 +105,24 @@ impl DiffuseSides {
     }
 }
 
+impl DiffuseSides {
+    /// The BSDF's value and density towards the local direction `wi`, for
+    /// the reflectance and side [`DiffuseSides::facing`] gave (whose `wo`
+    /// lies above that side): what `diffuse`, behind `twosided`'s mirror
+    /// on the back side, computes, bit for bit.
+    #[inline]
+    pub fn eval_pdf(reflectance: Rgb, flip: f32, wi: Vec3) -> (Rgb, f32) {
+        let wi = Vec3::new(wi.x, wi.y, flip * wi.z);
+        if wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        (
+            reflectance * (FRAC_1_PI * wi.z),
+            crate::sampling::cosine_hemisphere_pdf(wi),
+        )
+    }
+}
+
 /// An area light of constant radiance on a rectangle, as its area
 /// sampling reads it.
 #[derive(Clone, Copy, Debug)]
