@@ -630,6 +630,16 @@ mod tests {
             * Affine3A::from_scale(Vec3::splat(0.3));
         b.add_shape(wall(light), None, Some(Rgb::splat(10.0).into()))
             .unwrap();
+        // Lights other than rectangles: their samples at diffuse vertices
+        // are weighed apart from the wide shading (a delta light, and a
+        // small glowing sphere, which MIS weighs).
+        b.add_emitter(crate::light::Emitter::Point(crate::light::PointLight {
+            position: Vec3::new(0.5, 0.6, 0.4),
+            intensity: Rgb::new(0.6, 0.5, 0.4),
+        }));
+        let glow = Shape::Sphere(Sphere::new(Vec3::new(-0.6, 0.7, -0.5), 0.08, false));
+        b.add_shape(glow, None, Some(Rgb::new(4.0, 6.0, 8.0).into()))
+            .unwrap();
         // A panel seen from both sides, each with its own colour.
         let front = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::new(0.2, 0.6, 0.3))));
         let back = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::new(0.8, 0.3, 0.1))));
@@ -661,8 +671,10 @@ mod tests {
 
     /// Paths traced in packets (lanes refilled as paths end, some camera
     /// rays missing; diffuse vertices shaded eight at a time, textured and
-    /// not, from both sides of a two-sided panel, with the light sampled by area and by
-    /// solid angle) give each sample the value `li` gives it alone.
+    /// not, from both sides of a two-sided panel, with the rectangle light
+    /// sampled by area and by solid angle, and a point light and a glowing
+    /// sphere sampled apart) give each sample the value `li` gives it
+    /// alone.
     #[test]
     fn packets_of_paths_equal_single_paths() {
         let scene = room();
