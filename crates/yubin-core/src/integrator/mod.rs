@@ -288,6 +288,12 @@ pub(crate) fn environment_emission(
         }
         let emitter = &scene.emitters[e as usize];
         let (le, light_pdf) = if origin.bsdf_pdf.is_some() {
+            if scene.light_sampler.never_chooses(e) {
+                // Left to BSDF sampling (MIS compensation): light sampling
+                // never finds it, and its density and choice need no work.
+                l += weigh(emitter.environment_radiance(&ctx, d), Some(0.0));
+                continue;
+            }
             let (le, pdf) = emitter.environment_radiance_and_pdf(&ctx, origin.p, d);
             let choice = LightChoice {
                 emitter: e,

@@ -152,6 +152,8 @@ pub struct LightSampler {
     table: Option<AliasTable>,
     /// BVH: the tree (it also holds the lights at infinity).
     bvh: Option<LightBvh>,
+    /// Per emitter, whether it is left to BSDF sampling (never chosen).
+    left_out: Vec<bool>,
 }
 
 impl LightSampler {
@@ -176,6 +178,12 @@ impl LightSampler {
                 ..Self::default()
             };
         }
+        let sampler = |table, bvh| Self {
+            selection,
+            table,
+            bvh,
+            left_out: left_out.clone(),
+        };
         match selection {
             LightSelection::Uniform | LightSelection::Power => {
                 let weights: Vec<f32> = emitters
@@ -204,18 +212,22 @@ impl LightSampler {
                         AliasTable::new(&uniform)
                     }
                 };
-                Self {
-                    selection,
-                    table,
-                    bvh: None,
-                }
+                sampler(table, None)
             }
-            LightSelection::Bvh => Self {
-                selection,
-                table: None,
-                bvh: Some(LightBvh::new(emitters, &left_out, ctx, radius)),
-            },
+            LightSelection::Bvh => {
+                sampler(None, Some(LightBvh::new(emitters, &left_out, ctx, radius)))
+            }
         }
+    }
+
+    /// Whether the sampler never chooses `emitter` (left to BSDF
+    /// sampling): its [`LightSampler::pmf`] is 0 everywhere.
+    #[inline]
+    pub fn never_chooses(&self, emitter: u32) -> bool {
+        self.left_out
+            .get(emitter as usize)
+            .copied()
+            .unwrap_or(false)
     }
 
     /// Chooses a light for the shading point `p` with normal `n` (zero when
