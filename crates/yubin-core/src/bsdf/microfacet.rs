@@ -212,7 +212,7 @@ impl Microfacet {
     /// [`Microfacet::sample`]'s normal without its density; `None` for no
     /// usable sample.
     #[inline]
-    fn sample_normal(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+    pub(crate) fn sample_normal(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
         let m = if self.samples_visible() {
             match self.kind {
                 MicrofacetType::Ggx => self.sample_visible_ggx(wo, u),

@@ -331,7 +331,7 @@ impl BsdfModel for Principled {
             return None;
         }
         let up = if front { wo } else { -wo };
-        let (h, _) = p.dist.sample(up, u2);
+        let h = p.dist.sample_normal(up, u2).unwrap_or(Vec3::Z);
         let (f, cos_t, eta_it, eta_ti) = fresnel_dielectric(wo.dot(h), p.eta);
         let [pd, pc, pr, _] = self.lobe_probabilities(&p, front, f);
         // A facet lobe's direction must leave on the side its lobe scatters

@@ -215,14 +215,14 @@ impl BsdfModel for PrincipledThin {
         // the facet's proper side (else another lobe's density would
         // claim it).
         let (wi_up, sampled) = if u1 < psr {
-            let (h, _) = p.reflection.sample(up, u2);
+            let h = p.reflection.sample_normal(up, u2).unwrap_or(Vec3::Z);
             let wi = reflect_m(up, h);
             if wi.z <= 0.0 || !facet_agrees(h, up, wi, true) {
                 return None;
             }
             (wi, BsdfFlags::GLOSSY_REFLECTION)
         } else if u1 < psr + pst {
-            let (h, _) = p.transmission.sample(up, u2);
+            let h = p.transmission.sample_normal(up, u2).unwrap_or(Vec3::Z);
             let r = reflect_m(up, h);
             let wi = Vec3::new(r.x, r.y, -r.z);
             if wi.z >= 0.0 || !facet_agrees(h, up, wi, false) {

@@ -383,7 +383,11 @@ impl BsdfModel for RoughPlastic {
         }
         let t_o = self.tables(m).external_at(wo.z);
         let (wi, sampled) = if u1 < self.prob_specular(t_o) {
-            let (mf, _) = self.roughness.at(m, si).sample(wo, u2);
+            let mf = self
+                .roughness
+                .at(m, si)
+                .sample_normal(wo, u2)
+                .unwrap_or(Vec3::Z);
             (reflect_m(wo, mf), BsdfFlags::GLOSSY_REFLECTION)
         } else {
             (

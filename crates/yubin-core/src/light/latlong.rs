@@ -27,8 +27,8 @@ pub(crate) fn direction_of(uv: Vec2) -> Vec3 {
 /// densities, [`solid_angle_pdf`]).
 #[inline]
 pub(crate) fn direction_and_sin_theta(uv: Vec2) -> (Vec3, f32) {
-    let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
-    let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
+    let (sin_phi, cos_phi) = crate::math::sin_cos(2.0 * PI * uv.x);
+    let (sin_theta, cos_theta) = crate::math::sin_cos(PI * uv.y);
     (
         Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi),
         sin_theta,
