@@ -338,11 +338,32 @@ impl RoughPlastic {
         &m.rough_transmittance[self.transmittance as usize]
     }
 
-    /// The diffuse base's f · cos θi, seen through the coating: `t_o` is
-    /// the coating's transmittance towards wo (the tables' `external_at`).
+    /// Probability of sampling the specular lobe when T(θo) = `t_o`.
     #[inline]
-    fn diffuse_eval(&self, m: &Materials, si: &SurfaceInteraction, t_o: f32, wi: Vec3) -> Rgb {
+    fn prob_specular(&self, t_o: f32) -> f32 {
+        let w = self.specular_weight;
+        let (ps, pd) = ((1.0 - t_o) * w, t_o * (1.0 - w));
+        ps / (ps + pd)
+    }
+}
+
+impl RoughPlastic {
+    /// The BSDF at `si` seen from `wo` (`None` from below, where it
+    /// reflects nothing): what its values and samples there share,
+    /// computed once for a vertex's light sample and BSDF sample.
+    #[inline]
+    pub(crate) fn at<'a>(
+        &self,
+        m: &'a Materials,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+    ) -> Option<RoughPlasticAt<'a>> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let distr = self.roughness.at(m, si);
         let tables = self.tables(m);
+        let t_o = tables.external_at(wo.z);
         let rho = self.diffuse_reflectance.eval(m, si);
         let r = tables.internal_reflectance;
         let denom = if self.nonlinear {
@@ -350,16 +371,125 @@ impl RoughPlastic {
         } else {
             Rgb::splat(1.0 - r)
         };
-        let t = t_o * tables.external_at(wi.z);
-        rho / denom * (FRAC_1_PI * t * wi.z / (self.eta * self.eta))
+        Some(RoughPlasticAt {
+            wo,
+            eta: self.eta,
+            distr,
+            tables,
+            t_o,
+            p_spec: self.prob_specular(t_o),
+            g1_wo: 1.0 / (1.0 + distr.lambda(wo)),
+            specular: self.specular_reflectance.eval(m, si),
+            diffuse: rho / denom,
+        })
+    }
+}
+
+/// A [`RoughPlastic`] at one vertex, seen from `wo` (above the surface):
+/// the terms that depend on the vertex and `wo` alone (roughness,
+/// textures, the coating's transmittance towards `wo`, Smith's G1(wo)),
+/// from which [`RoughPlasticAt::eval`], [`RoughPlasticAt::eval_pdf`] and
+/// [`RoughPlasticAt::sample`] give the BSDF's values bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RoughPlasticAt<'a> {
+    wo: Vec3,
+    eta: f32,
+    distr: Microfacet,
+    tables: &'a RoughTransmittance,
+    /// The coating's transmittance towards `wo`.
+    t_o: f32,
+    /// Probability of sampling the specular lobe.
+    p_spec: f32,
+    /// G1(wo, m) for half vectors `wo` faces.
+    g1_wo: f32,
+    specular: Rgb,
+    /// The base's albedo over its bounces inside the coating.
+    diffuse: Rgb,
+}
+
+impl RoughPlasticAt<'_> {
+    /// G1(wo, `h`): 0 where `wo` lies behind the facet.
+    #[inline]
+    fn g1_wo(&self, h: Vec3) -> f32 {
+        if self.wo.dot(h) * self.wo.z <= 0.0 {
+            0.0
+        } else {
+            self.g1_wo
+        }
     }
 
-    /// Probability of sampling the specular lobe when T(θo) = `t_o`.
+    /// The diffuse base's f · cos θi, seen through the coating.
     #[inline]
-    fn prob_specular(&self, t_o: f32) -> f32 {
-        let w = self.specular_weight;
-        let (ps, pd) = ((1.0 - t_o) * w, t_o * (1.0 - w));
-        ps / (ps + pd)
+    fn diffuse_eval(&self, wi: Vec3) -> Rgb {
+        let t = self.t_o * self.tables.external_at(wi.z);
+        self.diffuse * (FRAC_1_PI * t * wi.z / (self.eta * self.eta))
+    }
+
+    /// f · cos θi towards `wi`.
+    #[inline]
+    pub(crate) fn eval(&self, wi: Vec3) -> Rgb {
+        let wo = self.wo;
+        if wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let h = (wo + wi).normalize();
+        let f = fresnel_dielectric(wo.dot(h), self.eta).0;
+        let g = self.g1_wo(h) * self.distr.g1(wi, h);
+        let specular = self.specular * (f * self.distr.d(h) * g / (4.0 * wo.z));
+        specular + self.diffuse_eval(wi)
+    }
+
+    /// [`RoughPlasticAt::eval`] and the density of sampling `wi`, sharing
+    /// the half vector, D and G1(wo).
+    #[inline]
+    pub(crate) fn eval_pdf(&self, wi: Vec3) -> (Rgb, f32) {
+        let wo = self.wo;
+        if wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let distr = &self.distr;
+        let h = (wo + wi).normalize();
+        let dm = distr.d(h);
+        let g1_wo = self.g1_wo(h);
+        let dg = dm * (distr.g1(wi, h) * g1_wo);
+        let pdf_h = if !distr.samples_visible() {
+            dm * h.z
+        } else {
+            dm * g1_wo * wo.dot(h).abs() / wo.z.abs()
+        };
+        let f = fresnel_dielectric(wo.dot(h), self.eta).0;
+        let specular = self.specular * (f * dg / (4.0 * wo.z));
+        let value = specular + self.diffuse_eval(wi);
+        let p_spec = self.p_spec;
+        let pdf = p_spec * (pdf_h / (4.0 * wi.dot(h))) + (1.0 - p_spec) * cosine_hemisphere_pdf(wi);
+        (value, pdf)
+    }
+
+    /// A direction from the specular lobe (with probability `p_spec`, by
+    /// `u2`) or the diffuse base, with its weight and density.
+    #[inline]
+    pub(crate) fn sample(&self, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+        let wo = self.wo;
+        let (wi, sampled) = if u1 < self.p_spec {
+            let mf = self.distr.sample_normal(wo, u2).unwrap_or(Vec3::Z);
+            (reflect_m(wo, mf), BsdfFlags::GLOSSY_REFLECTION)
+        } else {
+            (
+                square_to_cosine_hemisphere(u2),
+                BsdfFlags::DIFFUSE_REFLECTION,
+            )
+        };
+        let (value, pdf) = self.eval_pdf(wi);
+        if pdf.is_nan() || pdf <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            pdf,
+            eta: 1.0,
+            sampled,
+            weight: value / pdf,
+        })
     }
 }
 
@@ -372,41 +502,13 @@ impl BsdfModel for RoughPlastic {
     fn sample(
         &self,
         m: &Materials,
-        ctx: &BsdfContext,
+        _: &BsdfContext,
         si: &SurfaceInteraction,
         wo: Vec3,
         u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let t_o = self.tables(m).external_at(wo.z);
-        let (wi, sampled) = if u1 < self.prob_specular(t_o) {
-            let mf = self
-                .roughness
-                .at(m, si)
-                .sample_normal(wo, u2)
-                .unwrap_or(Vec3::Z);
-            (reflect_m(wo, mf), BsdfFlags::GLOSSY_REFLECTION)
-        } else {
-            (
-                square_to_cosine_hemisphere(u2),
-                BsdfFlags::DIFFUSE_REFLECTION,
-            )
-        };
-        // Value and density share the half vector, D and G1(wo).
-        let (value, pdf) = self.eval_pdf(m, ctx, si, wo, wi);
-        if pdf.is_nan() || pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wi,
-            pdf,
-            eta: 1.0,
-            sampled,
-            weight: value / pdf,
-        })
+        self.at(m, si, wo)?.sample(u1, u2)
     }
 
     #[inline]
@@ -418,15 +520,7 @@ impl BsdfModel for RoughPlastic {
         wo: Vec3,
         wi: Vec3,
     ) -> Rgb {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Rgb::ZERO;
-        }
-        let distr = self.roughness.at(m, si);
-        let h = (wo + wi).normalize();
-        let f = fresnel_dielectric(wo.dot(h), self.eta).0;
-        let specular = self.specular_reflectance.eval(m, si)
-            * (f * distr.d(h) * distr.g(wo, wi, h) / (4.0 * wo.z));
-        specular + self.diffuse_eval(m, si, self.tables(m).external_at(wo.z), wi)
+        self.at(m, si, wo).map_or(Rgb::ZERO, |at| at.eval(wi))
     }
 
     #[inline]
@@ -458,19 +552,8 @@ impl BsdfModel for RoughPlastic {
         wo: Vec3,
         wi: Vec3,
     ) -> (Rgb, f32) {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return (Rgb::ZERO, 0.0);
-        }
-        let distr = self.roughness.at(m, si);
-        let h = (wo + wi).normalize();
-        let (dg, pdf_h) = distr.dg_and_pdf(wo, wi, h);
-        let f = fresnel_dielectric(wo.dot(h), self.eta).0;
-        let specular = self.specular_reflectance.eval(m, si) * (f * dg / (4.0 * wo.z));
-        let external_wo = self.tables(m).external_at(wo.z);
-        let value = specular + self.diffuse_eval(m, si, external_wo, wi);
-        let p_spec = self.prob_specular(external_wo);
-        let pdf = p_spec * (pdf_h / (4.0 * wi.dot(h))) + (1.0 - p_spec) * cosine_hemisphere_pdf(wi);
-        (value, pdf)
+        self.at(m, si, wo)
+            .map_or((Rgb::ZERO, 0.0), |at| at.eval_pdf(wi))
     }
 }
 

@@ -413,6 +413,29 @@ pub(crate) fn sample_light_unshadowed(
     sampler: &mut SampleStream,
     light_count_ratio: f32,
 ) -> Option<UnshadowedSample> {
+    use crate::bsdf::{BsdfContext, BsdfModel};
+    let ctx = BsdfContext::default();
+    let m = &scene.materials;
+    sample_light_unshadowed_by(scene, si, sampler, light_count_ratio, |wi_local, mis| {
+        if mis {
+            bsdf.eval_pdf(m, &ctx, si, wo_local, wi_local)
+        } else {
+            (bsdf.eval(m, &ctx, si, wo_local, wi_local), 0.0)
+        }
+    })
+}
+
+/// [`sample_light_unshadowed`] with the BSDF's value and density towards
+/// a local direction given by `eval` (as [`light_sample_unshadowed_by`]
+/// takes them).
+#[inline(always)]
+pub(crate) fn sample_light_unshadowed_by(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    sampler: &mut SampleStream,
+    light_count_ratio: f32,
+    eval: impl FnOnce(Vec3, bool) -> (Rgb, f32),
+) -> Option<UnshadowedSample> {
     let draw = LightDraw::draw(sampler);
     let (light, pick_pdf) = scene.pick_light(draw.u_pick, si.p, si.n)?;
     let ls = sample_chosen_light(scene, light, si.p, draw.u)?;
@@ -421,11 +444,11 @@ pub(crate) fn sample_light_unshadowed(
         pick_pdf,
         emitter: light.emitter,
     };
-    light_sample_unshadowed(scene, si, bsdf, wo_local, &picked, light_count_ratio)
+    light_sample_unshadowed_by(scene, si, &picked, light_count_ratio, eval)
 }
 
 /// A light sample's contribution before its shadow ray is traced
-/// ([`light_sample_unshadowed`]).
+/// ([`light_sample_unshadowed_by`]).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct UnshadowedSample {
     /// BSDF value times radiance.
@@ -458,31 +481,9 @@ impl UnshadowedSample {
 
 /// The light sample `picked` at `si` with MIS against the BSDF, as
 /// [`sample_light`] weighs it, up to its shadow ray (`None` when the BSDF
-/// reflects nothing towards the light).
-#[inline]
-pub(crate) fn light_sample_unshadowed(
-    scene: &Scene,
-    si: &SurfaceInteraction,
-    bsdf: &crate::bsdf::Bsdf,
-    wo_local: Vec3,
-    picked: &PickedLightSample,
-    light_count_ratio: f32,
-) -> Option<UnshadowedSample> {
-    use crate::bsdf::{BsdfContext, BsdfModel};
-    let ctx = BsdfContext::default();
-    let m = &scene.materials;
-    light_sample_unshadowed_by(scene, si, picked, light_count_ratio, |wi_local, mis| {
-        if mis {
-            bsdf.eval_pdf(m, &ctx, si, wo_local, wi_local)
-        } else {
-            (bsdf.eval(m, &ctx, si, wo_local, wi_local), 0.0)
-        }
-    })
-}
-
-/// [`light_sample_unshadowed`] with the BSDF's value and density (0 when
-/// the second argument, whether MIS weighs the sample, is false) towards
-/// a local direction given by `eval`.
+/// reflects nothing towards the light); the BSDF's value and density
+/// (0 when the second argument, whether MIS weighs the sample, is false)
+/// towards a local direction are `eval`'s.
 #[inline(always)]
 pub(crate) fn light_sample_unshadowed_by(
     scene: &Scene,
