@@ -157,6 +157,37 @@ impl BsdfModel for RoughConductor {
         }
         self.roughness.at(m, si).pdf(wo, h) / (4.0 * wo_h)
     }
+
+    /// [`BsdfModel::eval`] and [`BsdfModel::pdf`] sharing the half vector,
+    /// D and G1(wo): the same values bit for bit.
+    #[inline]
+    fn eval_pdf(
+        &self,
+        m: &Materials,
+        _: &BsdfContext,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let h = (wo + wi).normalize();
+        let d = self.roughness.at(m, si);
+        let (dg, pdf_h) = d.dg_and_pdf(wo, wi, h);
+        let value = if dg == 0.0 || !h.is_finite() {
+            Rgb::ZERO
+        } else {
+            self.fresnel(m, si, wi.dot(h)) * (dg / (4.0 * wo.z))
+        };
+        let wo_h = wo.dot(h);
+        let pdf = if wo_h <= 0.0 {
+            0.0
+        } else {
+            pdf_h / (4.0 * wo_h)
+        };
+        (value, pdf)
+    }
 }
 
 #[cfg(test)]
