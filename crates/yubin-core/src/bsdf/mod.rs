@@ -403,6 +403,72 @@ pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
     }),
 ];
 
+/// A BSDF at one vertex, seen from `wo` (local), for the vertex's light
+/// sample and BSDF sample: where a model has terms that depend on the
+/// vertex and `wo` alone (`roughplastic`), they are computed once
+/// ([`Bsdf::at`]); the values are the BSDF's own, bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum BsdfAt<'a> {
+    /// A rough plastic bound to the vertex (`None` from below, where it
+    /// reflects nothing).
+    RoughPlastic(Option<rough_plastic::RoughPlasticAt<'a>>),
+    /// Any other BSDF, asked at each call.
+    Any {
+        bsdf: &'a Bsdf,
+        m: &'a Materials,
+        si: &'a SurfaceInteraction,
+        wo: Vec3,
+    },
+}
+
+impl Bsdf {
+    /// The BSDF at `si` seen from the local direction `wo`.
+    #[inline]
+    pub(crate) fn at<'a>(
+        &'a self,
+        m: &'a Materials,
+        si: &'a SurfaceInteraction,
+        wo: Vec3,
+    ) -> BsdfAt<'a> {
+        match self {
+            Bsdf::RoughPlastic(p) => BsdfAt::RoughPlastic(p.at(m, si, wo)),
+            bsdf => BsdfAt::Any { bsdf, m, si, wo },
+        }
+    }
+}
+
+impl BsdfAt<'_> {
+    /// The value towards `wi` and, when `with_pdf`, the density of
+    /// sampling it ([`BsdfModel::eval_pdf`]; else [`BsdfModel::eval`] and 0).
+    #[inline]
+    pub(crate) fn eval_pdf_if(&self, wi: Vec3, with_pdf: bool) -> (Rgb, f32) {
+        match *self {
+            BsdfAt::RoughPlastic(None) => (Rgb::ZERO, 0.0),
+            BsdfAt::RoughPlastic(Some(at)) if with_pdf => at.eval_pdf(wi),
+            BsdfAt::RoughPlastic(Some(at)) => (at.eval(wi), 0.0),
+            BsdfAt::Any { bsdf, m, si, wo } => {
+                let ctx = BsdfContext::default();
+                if with_pdf {
+                    bsdf.eval_pdf(m, &ctx, si, wo, wi)
+                } else {
+                    (bsdf.eval(m, &ctx, si, wo, wi), 0.0)
+                }
+            }
+        }
+    }
+
+    /// [`BsdfModel::sample`] with the numbers `u1` and `u2`.
+    #[inline]
+    pub(crate) fn sample(&self, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+        match *self {
+            BsdfAt::RoughPlastic(at) => at?.sample(u1, u2),
+            BsdfAt::Any { bsdf, m, si, wo } => {
+                bsdf.sample(m, &BsdfContext::default(), si, wo, u1, u2)
+            }
+        }
+    }
+}
+
 macro_rules! dispatch {
     ($self:expr, $b:ident => $e:expr) => {
         match $self {

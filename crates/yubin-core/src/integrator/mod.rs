@@ -397,37 +397,17 @@ pub(crate) fn sample_light(
     light_count_ratio: f32,
     max_crossings: u32,
 ) -> Rgb {
-    sample_light_unshadowed(scene, si, bsdf, wo_local, sampler, light_count_ratio)
+    let at = bsdf.at(&scene.materials, si, wo_local);
+    let eval = |wi, mis| at.eval_pdf_if(wi, mis);
+    sample_light_unshadowed_by(scene, si, sampler, light_count_ratio, eval)
         .map_or(Rgb::ZERO, |l| l.shadowed(scene, max_crossings))
 }
 
 /// [`sample_light`] up to its shadow ray: the light sample's
 /// contribution should nothing block it, and its shadow ray (`None` when
-/// it contributes nothing anyway).
-#[inline]
-pub(crate) fn sample_light_unshadowed(
-    scene: &Scene,
-    si: &SurfaceInteraction,
-    bsdf: &crate::bsdf::Bsdf,
-    wo_local: Vec3,
-    sampler: &mut SampleStream,
-    light_count_ratio: f32,
-) -> Option<UnshadowedSample> {
-    use crate::bsdf::{BsdfContext, BsdfModel};
-    let ctx = BsdfContext::default();
-    let m = &scene.materials;
-    sample_light_unshadowed_by(scene, si, sampler, light_count_ratio, |wi_local, mis| {
-        if mis {
-            bsdf.eval_pdf(m, &ctx, si, wo_local, wi_local)
-        } else {
-            (bsdf.eval(m, &ctx, si, wo_local, wi_local), 0.0)
-        }
-    })
-}
-
-/// [`sample_light_unshadowed`] with the BSDF's value and density towards
-/// a local direction given by `eval` (as [`light_sample_unshadowed_by`]
-/// takes them).
+/// it contributes nothing anyway), with the BSDF's value and density
+/// towards a local direction given by `eval` (as
+/// [`light_sample_unshadowed_by`] takes them).
 #[inline(always)]
 pub(crate) fn sample_light_unshadowed_by(
     scene: &Scene,

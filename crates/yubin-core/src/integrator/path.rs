@@ -41,12 +41,12 @@
 use super::max_depth_param;
 use super::wide::{self, DiffuseBatch, DiffuseShading, DiffuseSides, DiffuseVertex};
 use super::{
-    environment_radiance, light_sample_unshadowed_by, sample_chosen_light, sample_light_unshadowed,
+    environment_radiance, light_sample_unshadowed_by, sample_chosen_light,
     sample_light_unshadowed_by, shadow_ray_towards, surface_emission, Integrator, LightDraw,
     PickedLightSample, RayOrigin, UnshadowedSample,
 };
 use crate::accel::PACKET_RAYS;
-use crate::bsdf::{Bsdf, BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use crate::bsdf::{BsdfFlags, BsdfSample};
 use crate::interaction::SurfaceInteraction;
 use crate::light::{LightChoice, LightSelection};
 use crate::math::spawn_ray;
@@ -413,34 +413,17 @@ impl PathIntegrator {
     ) -> bool {
         let bsdf = scene.bsdf_of(si.shape);
         let wo = si.to_local(si.wo);
-        let m = &scene.materials;
-        // A rough plastic's terms of wo alone, computed once for both samples.
-        let plastic = match bsdf {
-            Bsdf::RoughPlastic(p) => Some(p.at(m, si, wo)),
-            _ => None,
-        };
+        // Terms of the vertex and wo alone, computed once for both samples.
+        let at = bsdf.at(&scene.materials, si, wo);
         if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) {
-            let l = match &plastic {
-                Some(at) => sample_light_unshadowed_by(scene, si, sampler, 1.0, |wi, mis| {
-                    at.as_ref().map_or((Rgb::ZERO, 0.0), |at| match mis {
-                        true => at.eval_pdf(wi),
-                        false => (at.eval(wi), 0.0),
-                    })
-                }),
-                None => sample_light_unshadowed(scene, si, bsdf, wo, sampler, 1.0),
-            };
-            if let Some(l) = l {
+            let eval = |wi, mis| at.eval_pdf_if(wi, mis);
+            if let Some(l) = sample_light_unshadowed_by(scene, si, sampler, 1.0, eval) {
                 self.add_light_sample(scene, path, &l, shadows);
             }
         }
         let u1 = sampler.next_1d();
         let u2 = sampler.next_2d();
-        let ctx = BsdfContext::default();
-        let sampled = match &plastic {
-            Some(at) => at.as_ref().and_then(|at| at.sample(u1, u2)),
-            None => bsdf.sample(m, &ctx, si, wo, u1, u2),
-        };
-        let Some(bs) = sampled else {
+        let Some(bs) = at.sample(u1, u2) else {
             return false;
         };
         let wi = si.to_world(bs.wi);
