@@ -241,7 +241,7 @@ impl Scene {
                     }
                     open &= !blocked;
                 }
-                if !g.only_triangles {
+                if !g.only_triangles && g.leaf_has_items(start) {
                     for item in &g.items[start..start + count] {
                         if open == 0 {
                             break;
@@ -340,7 +340,7 @@ impl Scene {
                         }
                     }
                 }
-                if !g.only_triangles {
+                if !g.only_triangles && g.leaf_has_items(start) {
                     for item in &g.items[start..start + count] {
                         self.item_packet(*item, &packet, mask, &mut hits, &kernels.shapes);
                     }
