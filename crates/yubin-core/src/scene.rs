@@ -582,11 +582,8 @@ impl Scene {
                 if !g.leaf_has_items(start) {
                     return best;
                 }
-                let r = Ray {
-                    t_max: best.unwrap_or(t_max),
-                    ..*ray
-                };
-                match self.closest_item(g, start..start + count, r, instance) {
+                let t_max = best.unwrap_or(t_max);
+                match self.closest_item(g, start..start + count, ray, t_max, instance) {
                     Some(h) => {
                         closest = Some(Closest::Other(h));
                         Some(h.hit.t)
@@ -598,40 +595,62 @@ impl Scene {
     }
 
     /// Closest hit among the items (not triangles) at `range` of a group's
-    /// leaf order. Out of line: groups of triangles only never call it, and
-    /// its size would crowd the registers of their traversal loop.
+    /// leaf order, within `ray`'s interval cut at `t_max`. Out of line:
+    /// groups of triangles only never call it, and its size would crowd
+    /// the registers of their traversal loop. Shapes are tested against
+    /// `ray` itself and their hits cut at `t_max` after (every shape
+    /// returns the nearest root past `t_min`, which a shorter interval
+    /// keeps or drops whole): a copy of the ray with the cut, built here,
+    /// was stored field by field and read back in wider pieces, which the
+    /// CPU cannot forward (a fifth of this function's time in the fog
+    /// scene).
     #[inline(never)]
     fn closest_item(
         &self,
         g: &Group,
         range: std::ops::Range<usize>,
-        mut r: Ray,
+        ray: &Ray,
+        mut t_max: f32,
         instance: Option<u32>,
     ) -> Option<HitRecord> {
-        let mut best = None;
-        for item in &g.items[range] {
-            let h = match *item {
-                Item::Triangle { .. } | Item::Empty => None,
-                Item::Prim { shape, prim } => self.shapes[shape as usize]
-                    .intersect(&self.meshes, prim, &r)
-                    .map(|hit| HitRecord {
-                        shape,
-                        prim,
-                        hit: WholeHit(hit),
-                        instance,
-                    }),
+        // The best shape hit as scalars, its record made once at the end:
+        // a record rebuilt per hit went through memory in pieces.
+        let (mut t_best, mut uv_best, mut item_best) = (0.0, glam::Vec2::ZERO, None);
+        let mut instance_best = None;
+        for (i, item) in g.items[range.clone()].iter().enumerate() {
+            match *item {
+                Item::Triangle { .. } | Item::Empty => {}
+                Item::Prim { shape, prim } => {
+                    let hit = self.shapes[shape as usize].intersect(&self.meshes, prim, ray);
+                    if let Some(hit) = hit.filter(|hit| hit.t < t_max) {
+                        (t_max, t_best, uv_best) = (hit.t, hit.t, hit.uv);
+                        item_best = Some(i);
+                    }
+                }
                 Item::Instance(inst) => {
                     let placed = &self.instances[inst as usize];
-                    let local = to_local_ray(&r, &placed.to_world);
-                    self.closest_in_group(&self.groups[placed.group as usize], &local, Some(inst))
+                    let local = to_local_ray(&Ray { t_max, ..*ray }, &placed.to_world);
+                    let group = &self.groups[placed.group as usize];
+                    if let Some(h) = self.closest_in_group(group, &local, Some(inst)) {
+                        t_max = h.hit.t;
+                        (instance_best, item_best) = (Some(h), Some(i));
+                    }
                 }
-            };
-            if let Some(h) = h {
-                r.t_max = h.hit.t;
-                best = Some(h);
             }
         }
-        best
+        let i = item_best?;
+        match g.items[range.start + i] {
+            Item::Prim { shape, prim } => Some(HitRecord {
+                shape,
+                prim,
+                hit: WholeHit(PrimHit {
+                    t: t_best,
+                    uv: uv_best,
+                }),
+                instance,
+            }),
+            _ => instance_best,
+        }
     }
 
     /// True when any item of the group blocks the ray.
