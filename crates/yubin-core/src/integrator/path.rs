@@ -213,9 +213,12 @@ impl Integrator for PathIntegrator {
 
 /// Adds the light sample `l` to `path`, its shadow ray traced now through
 /// at most `crossings` pass-through surfaces (out of line: the queued
-/// samples are the common case).
+/// samples are the common case). By value, so that the sample is copied
+/// to memory on this path alone: by reference, the caller kept it in
+/// memory on the queued path too, stored in pieces and read back whole
+/// for the queue, which the CPU cannot forward.
 #[inline(never)]
-fn add_shadowed(scene: &Scene, path: &mut Path, l: &UnshadowedSample, crossings: u32) {
+fn add_shadowed(scene: &Scene, path: &mut Path, l: UnshadowedSample, crossings: u32) {
     path.l += path.beta * l.shadowed(scene, crossings);
 }
 
@@ -446,7 +449,7 @@ impl PathIntegrator {
             Some((queue, lane)) if Shadows::takes(scene, crossings) => {
                 queue.push(lane, path.beta * l.through(1.0), l.shadow);
             }
-            _ => add_shadowed(scene, path, l, crossings),
+            _ => add_shadowed(scene, path, *l, crossings),
         }
     }
 
