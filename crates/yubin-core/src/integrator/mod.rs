@@ -261,6 +261,23 @@ pub(crate) fn environment_radiance(scene: &Scene, origin: &RayOrigin, d: Vec3) -
     })
 }
 
+/// Adds [`environment_radiance`] times `beta` to `l`, in place and out of
+/// line: a result handed back was written in pieces and read whole by
+/// the caller at once, which the CPU cannot forward.
+#[inline(never)]
+pub(crate) fn add_environment_radiance(
+    scene: &Scene,
+    origin: &RayOrigin,
+    d: Vec3,
+    beta: Rgb,
+    l: &mut Rgb,
+) {
+    let le = environment_emission(scene, origin, d, |le, light_pdf| {
+        power_weighted(origin, le, light_pdf)
+    });
+    *l += beta * le;
+}
+
 /// `le` weighted by the power heuristic between the origin's BSDF density
 /// and the light density `light_pdf` (unweighted without either).
 fn power_weighted(origin: &RayOrigin, le: Rgb, light_pdf: Option<f32>) -> Rgb {
@@ -291,7 +308,13 @@ pub(crate) fn environment_emission(
             if scene.light_sampler.never_chooses(e) {
                 // Left to BSDF sampling (MIS compensation): light sampling
                 // never finds it, and its density and choice need no work.
-                l += weigh(emitter.environment_radiance(&ctx, d), Some(0.0));
+                // A constant sky's radiance is read in its own branch: out
+                // of a match with the other emitters' calls, it came
+                // through memory in pieces the CPU cannot forward.
+                l += match emitter {
+                    crate::light::Emitter::Constant(c) => weigh(c.radiance, Some(0.0)),
+                    _ => weigh(emitter.environment_radiance(&ctx, d), Some(0.0)),
+                };
                 continue;
             }
             let (le, pdf) = emitter.environment_radiance_and_pdf(&ctx, origin.p, d);

@@ -41,7 +41,7 @@
 use super::max_depth_param;
 use super::wide::{self, DiffuseBatch, DiffuseShading, DiffuseSides, DiffuseVertex};
 use super::{
-    environment_radiance, light_sample_unshadowed_by, sample_chosen_light,
+    add_environment_radiance, light_sample_unshadowed_by, sample_chosen_light,
     sample_light_unshadowed_by, shadow_ray_towards, surface_emission, Integrator, LightDraw,
     PickedLightSample, RayOrigin, UnshadowedSample,
 };
@@ -375,7 +375,7 @@ impl PathIntegrator {
     fn escape(&self, scene: &Scene, path: &mut Path) {
         if !(path.depth == 0 && self.hide_emitters) {
             let d = path.ray.d.normalize();
-            path.l += path.beta * environment_radiance(scene, &path.origin, d);
+            add_environment_radiance(scene, &path.origin, d, path.beta, &mut path.l);
         }
     }
 
