@@ -405,6 +405,11 @@ pub struct Scene {
     /// integrator writes no uv ([`SceneBuilder::uv_unread_by_integrator`]);
     /// spheres then skip their angles' arctangents.
     uv_unread: bool,
+    /// Per shape, whether its hits may take any shading frame about the
+    /// normal: nothing reads uv (`uv_unread`) and its BSDF turns freely
+    /// ([`Bsdf::turns_freely`]); spheres then build theirs from the
+    /// normal alone ([`crate::shape::Sphere::interaction_free_frame`]).
+    free_frame: Vec<bool>,
 }
 
 impl Scene {
@@ -723,6 +728,9 @@ impl Scene {
             // The shape's interaction already looks back along `closest`,
             // whose direction is `ray`'s.
             None => match shape {
+                Shape::Sphere(s) if self.free_frame[h.shape as usize] => {
+                    s.interaction_free_frame(closest, *h.hit)
+                }
                 Shape::Sphere(s) if self.uv_unread => s.interaction_without_uv(closest, *h.hit),
                 _ => shape.interaction(&self.meshes, h.prim, closest, *h.hit),
             },
@@ -1608,8 +1616,15 @@ impl SceneBuilder {
             radius,
         );
         let uv_unread = self.uv_unread_by_integrator && self.materials.textures.is_empty();
+        let free_frame = (self.shape_info.iter())
+            .map(|info| {
+                let bsdf = &self.materials.bsdfs[info.bsdf as usize];
+                uv_unread && bsdf.turns_freely(&self.materials)
+            })
+            .collect();
         Ok(Scene {
             uv_unread,
+            free_frame,
             meshes: self.meshes,
             shapes: self.shapes,
             shape_info: self.shape_info,

@@ -251,6 +251,39 @@ pub enum Bsdf {
 }
 
 impl Bsdf {
+    /// Whether the BSDF's values and the distribution of its samples stay
+    /// the same when the shading frame turns about the normal (it reads
+    /// no tangent direction): isotropic models without bump or normal
+    /// maps. Conservative: `false` where unsure.
+    pub fn turns_freely(&self, m: &Materials) -> bool {
+        let isotropic = |r: &microfacet::Roughness| r.alpha_u == r.alpha_v;
+        match self {
+            Bsdf::Diffuse(_)
+            | Bsdf::Plastic(_)
+            | Bsdf::RoughPlastic(_)
+            | Bsdf::Null(_)
+            | Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Conductor(_)
+            | Bsdf::RoughDiffuse(_)
+            | Bsdf::DiffTrans(_) => true,
+            Bsdf::RoughConductor(b) => isotropic(&b.roughness),
+            Bsdf::RoughDielectric(b) => isotropic(&b.roughness),
+            Bsdf::TwoSided(t) => [t.front, t.back]
+                .iter()
+                .all(|&b| m.bsdfs[b as usize].turns_freely(m)),
+            Bsdf::Mask(_)
+            | Bsdf::BlendBsdf(_)
+            | Bsdf::BumpMap(_)
+            | Bsdf::NormalMap(_)
+            | Bsdf::Principled(_)
+            | Bsdf::PrincipledThin(_)
+            | Bsdf::Phong(_) => false,
+        }
+    }
+}
+
+impl Bsdf {
     /// The BSDFs nested in this one, by index (none for plain models).
     pub fn children(&self) -> Vec<u32> {
         match self {
@@ -808,9 +841,9 @@ pub(crate) mod tests {
     /// of its weights against eval/pdf, energy (albedo at most one, exactly
     /// one when lossless), and reciprocity of its reflection. All failures
     /// are collected and reported together.
-    #[test]
-    fn every_bsdf_variant() {
-        let variants: Vec<Variant> = [
+    /// Every variant of every BSDF family.
+    fn all_variants() -> Vec<Variant> {
+        [
             diffuse::tests::test_variants(),
             twosided::tests::test_variants(),
             plastic::tests::test_variants(),
@@ -833,7 +866,58 @@ pub(crate) mod tests {
         ]
         .into_iter()
         .flatten()
-        .collect();
+        .collect()
+    }
+
+    /// The BSDFs that say they turn freely about the normal
+    /// ([`Bsdf::turns_freely`]) give the same values and densities for
+    /// directions turned about it, and some of the others do not (so the
+    /// check can tell).
+    #[test]
+    fn bsdfs_that_turn_freely_ignore_the_tangent() {
+        let si = flat_si();
+        let ctx = BsdfContext::default();
+        let pairs = [
+            (Vec3::new(0.3, 0.2, 0.9), Vec3::new(-0.5, 0.4, 0.6)),
+            (Vec3::new(-0.6, 0.3, 0.5), Vec3::new(0.1, -0.7, 0.4)),
+            (Vec3::new(0.8, -0.1, 0.3), Vec3::new(0.6, 0.3, -0.5)),
+        ];
+        let (mut free, mut varying) = (0, 0);
+        for v in all_variants() {
+            let b = v.m.bsdfs[v.id];
+            let mut turns = true;
+            for (wo, wi) in pairs {
+                let (wo, wi) = (wo.normalize(), wi.normalize());
+                let f = b.eval(&v.m, &ctx, &si, wo, wi);
+                let pdf = b.pdf(&v.m, &ctx, &si, wo, wi);
+                for angle in [0.7f32, 2.1, 4.0] {
+                    let r = glam::Mat3::from_rotation_z(angle);
+                    let (f_r, pdf_r) = (
+                        b.eval(&v.m, &ctx, &si, r * wo, r * wi),
+                        b.pdf(&v.m, &ctx, &si, r * wo, r * wi),
+                    );
+                    let close =
+                        |a: f32, b: f32| (a - b).abs() <= 1e-3 * a.abs().max(b.abs()) + 1e-6;
+                    turns &= (0..3).all(|c| close(f[c], f_r[c])) && close(pdf, pdf_r);
+                }
+            }
+            if b.turns_freely(&v.m) {
+                assert!(
+                    turns,
+                    "{} says it turns freely but depends on the tangent",
+                    v.name
+                );
+                free += 1;
+            } else if !turns {
+                varying += 1;
+            }
+        }
+        assert!(free > 10 && varying > 2, "{free} free, {varying} varying");
+    }
+
+    #[test]
+    fn every_bsdf_variant() {
+        let variants = all_variants();
         // Hundreds of chi-square tests run here: Šidák's correction keeps
         // the chance that any of them rejects a correct sampler at 1 %.
         let tests = variants

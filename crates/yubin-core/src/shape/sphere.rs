@@ -174,6 +174,25 @@ impl Sphere {
         self.interaction_with(ray, hit, false)
     }
 
+    /// [`Sphere::interaction_without_uv`] with the shading frame built
+    /// from the normal alone ([`Frame::from_normal`]) and ∂p/∂u, ∂p/∂v set
+    /// to its unit tangents, for a sphere whose BSDF turns freely about
+    /// the normal ([`Bsdf::turns_freely`]) in a scene where nothing reads
+    /// uv or the derivatives: the turned frame gives the same
+    /// distribution of samples (other samples, so other images, alike in
+    /// the mean) for two square roots and two divisions fewer per hit.
+    ///
+    /// [`Frame::from_normal`]: crate::math::Frame::from_normal
+    /// [`Bsdf::turns_freely`]: crate::bsdf::Bsdf::turns_freely
+    #[inline]
+    pub(crate) fn interaction_free_frame(&self, ray: &Ray, hit: PrimHit) -> SurfaceInteraction {
+        let outward = (ray.at(hit.t) - self.center).normalize();
+        // Re-project onto the surface to undo round-off in t.
+        let p = self.center + outward * self.radius;
+        let frame = crate::math::Frame::from_normal(self.outward_to_normal(outward));
+        super::make_interaction_in_frame(ray, hit.t, p, frame, Vec2::ZERO, frame.s, frame.t)
+    }
+
     #[inline(always)]
     fn interaction_with(&self, ray: &Ray, hit: PrimHit, with_uv: bool) -> SurfaceInteraction {
         let outward = (ray.at(hit.t) - self.center).normalize();
@@ -360,6 +379,43 @@ mod tests {
         let s = Shape::Sphere(s);
         check_uv_derivatives(&s, Vec3::new(0.5, 1.0, 3.0), Vec3::new(0.2, 0.1, 0.0));
         check_uv_derivatives(&s, Vec3::new(-2.0, -1.0, 0.5), Vec3::new(0.2, 0.1, 0.0));
+    }
+
+    /// The free frame keeps the point, distance and normal of the full
+    /// interaction (both sides, flipped normals too) and is orthonormal
+    /// about that normal.
+    #[test]
+    fn free_frame_keeps_the_point_and_normal() {
+        let mut rng = crate::sampler::Pcg32::new(5, 3);
+        for flip in [false, true] {
+            let mut s = Sphere::new(Vec3::new(0.2, 0.1, -0.3), 0.7, flip);
+            s.rotation = Mat3::from_rotation_y(0.6) * Mat3::from_rotation_x(-0.4);
+            let mut seen = 0;
+            for _ in 0..2000 {
+                let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 3.0;
+                let target = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
+                let ray = Ray::new(o, (target - o).normalize());
+                let Some(hit) = s.intersect(&[], 0, &ray) else {
+                    continue;
+                };
+                let (full, free) = (
+                    s.interaction(&[], 0, &ray, hit),
+                    s.interaction_free_frame(&ray, hit),
+                );
+                assert_eq!((free.p, free.t, free.n), (full.p, full.t, full.n));
+                assert_eq!(free.sh_frame.n, full.sh_frame.n);
+                let f = free.sh_frame;
+                for (a, b) in [(f.s, f.t), (f.t, f.n), (f.n, f.s)] {
+                    assert!(a.dot(b).abs() < 1e-5, "{f:?}");
+                }
+                for v in [f.s, f.t] {
+                    assert!((v.length() - 1.0).abs() < 1e-5, "{f:?}");
+                }
+                assert!(f.s.cross(f.t).dot(f.n) > 0.999, "right-handed: {f:?}");
+                seen += 1;
+            }
+            assert!(seen > 200, "{seen} hits");
+        }
     }
 
     #[test]
