@@ -407,8 +407,8 @@ pub struct Scene {
     uv_unread: bool,
     /// Per shape, whether its hits may take any shading frame about the
     /// normal: nothing reads uv (`uv_unread`) and its BSDF turns freely
-    /// ([`Bsdf::turns_freely`]); spheres then build theirs from the
-    /// normal alone ([`crate::shape::Sphere::interaction_free_frame`]).
+    /// ([`Bsdf::turns_freely`]); spheres and disks then build theirs from
+    /// the normal alone ([`crate::shape::Sphere::interaction_free_frame`]).
     free_frame: Vec<bool>,
 }
 
@@ -730,6 +730,9 @@ impl Scene {
             None => match shape {
                 Shape::Sphere(s) if self.free_frame[h.shape as usize] => {
                     s.interaction_free_frame(closest, *h.hit)
+                }
+                Shape::Disk(d) if self.free_frame[h.shape as usize] => {
+                    d.interaction_free_frame(closest, *h.hit)
                 }
                 Shape::Sphere(s) if self.uv_unread => s.interaction_without_uv(closest, *h.hit),
                 _ => shape.interaction(&self.meshes, h.prim, closest, *h.hit),

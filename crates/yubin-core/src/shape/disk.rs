@@ -84,6 +84,18 @@ impl Disk {
     }
 }
 
+impl Disk {
+    /// The interaction with the shading frame built from the normal alone
+    /// and uv left at zero, as [`super::Sphere::interaction_free_frame`]
+    /// (no length, arctangent or Gram–Schmidt per hit).
+    #[inline]
+    pub(crate) fn interaction_free_frame(&self, ray: &Ray, hit: PrimHit) -> SurfaceInteraction {
+        let p = self.to_world.point(hit.uv.extend(0.0));
+        let frame = crate::math::Frame::from_normal(self.normal());
+        super::make_interaction_in_frame(ray, hit.t, p, frame, Vec2::ZERO, frame.s, frame.t)
+    }
+}
+
 impl ShapeModel for Disk {
     fn prim_count(&self, _: &[TriangleMesh]) -> u32 {
         1
