@@ -156,7 +156,9 @@ impl ShapeModel for Disk {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shape::tests::{check_shape_sampling, check_uv_derivatives, closest_hit};
+    use crate::shape::tests::{
+        check_free_frame, check_shape_sampling, check_uv_derivatives, closest_hit,
+    };
     use crate::shape::Shape;
     use glam::Affine3A;
 
@@ -169,6 +171,17 @@ mod tests {
     #[test]
     fn uv_derivatives_follow_the_surface() {
         check_uv_derivatives(&skewed(), Vec3::new(0.3, 0.2, 2.0), Vec3::ZERO);
+    }
+
+    /// The free frame keeps the point, distance and normal of the full
+    /// interaction (both sides, flipped normals too).
+    #[test]
+    fn free_frame_keeps_the_point_and_normal() {
+        let m = Affine3A::from_rotation_y(0.5) * Affine3A::from_scale(Vec3::new(0.8, 0.5, 1.0));
+        for flip in [false, true] {
+            let d = Disk::new(Transform::new(m).unwrap(), flip);
+            check_free_frame(&Shape::Disk(d), |r, h| d.interaction_free_frame(r, h));
+        }
     }
 
     #[test]

@@ -595,6 +595,40 @@ pub(crate) mod tests {
         assert!(compared > 100, "only {compared} samples could be compared");
     }
 
+    /// `free` (a hit's interaction with the frame built from the normal
+    /// alone) for rays from random points of the box [−3, 3]³ towards
+    /// random points of the unit box about the origin, against `full` (the
+    /// shape's whole interaction): the same point, distance and normal,
+    /// and an orthonormal right-handed frame about that normal.
+    pub(crate) fn check_free_frame(
+        shape: &Shape,
+        free: impl Fn(&Ray, PrimHit) -> SurfaceInteraction,
+    ) {
+        let mut rng = crate::sampler::Pcg32::new(5, 3);
+        let mut seen = 0;
+        for _ in 0..2000 {
+            let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 3.0;
+            let target = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
+            let ray = Ray::new(o, (target - o).normalize());
+            let Some(hit) = shape.intersect(&[], 0, &ray) else {
+                continue;
+            };
+            let (full, free) = (shape.interaction(&[], 0, &ray, hit), free(&ray, hit));
+            assert_eq!((free.p, free.t, free.n), (full.p, full.t, full.n));
+            let f = free.sh_frame;
+            assert_eq!(f.n, full.sh_frame.n);
+            for (a, b) in [(f.s, f.t), (f.t, f.n), (f.n, f.s)] {
+                assert!(a.dot(b).abs() < 1e-5, "{f:?}");
+            }
+            for v in [f.s, f.t] {
+                assert!((v.length() - 1.0).abs() < 1e-5, "{f:?}");
+            }
+            assert!(f.s.cross(f.t).dot(f.n) > 0.999, "right-handed: {f:?}");
+            seen += 1;
+        }
+        assert!(seen > 200, "{seen} hits");
+    }
+
     /// dp/du and dp/dv at hits seen from `origin` are the derivatives of
     /// the surface along its uv: for two nearby hits, p' − p matches
     /// dpdu Δu + dpdv Δv to first order (pairs across a uv seam skipped).
