@@ -441,11 +441,7 @@ impl Scene {
     /// The interaction at `hit`, the closest hit along `ray`.
     #[inline]
     pub fn interaction_at(&self, ray: &Ray, hit: &HitRecord) -> SurfaceInteraction {
-        let closest = Ray {
-            t_max: hit.hit.t,
-            ..*ray
-        };
-        self.interaction(ray, &closest, hit)
+        self.interaction(ray, hit)
     }
 
     /// The closest hit along `ray`, with its interaction computed only when
@@ -474,19 +470,15 @@ impl Scene {
         if !bsdf.lets_light_through(&self.materials) {
             return Some(ShadowHit::Opaque);
         }
-        let closest = Ray {
-            t_max: h.hit.t,
-            ..*ray
-        };
         if !matches!(bsdf, Bsdf::Null(_)) {
-            return Some(ShadowHit::Surface(self.interaction(ray, &closest, &h)));
+            return Some(ShadowHit::Surface(self.interaction(ray, &h)));
         }
         let shape = &self.shapes[h.shape as usize];
         let (p, n) = match h.instance {
-            None => shape.point_and_normal(&self.meshes, h.prim, &closest, *h.hit),
+            None => shape.point_and_normal(&self.meshes, h.prim, ray, *h.hit),
             Some(inst) => {
                 let t = &self.instances[inst as usize].to_world;
-                let local_ray = to_local_ray(&closest, t);
+                let local_ray = to_local_ray(ray, t);
                 let (p, n) = shape.point_and_normal(&self.meshes, h.prim, &local_ray, *h.hit);
                 (t.point(p), t.normal(n).normalize())
             }
@@ -721,25 +713,27 @@ impl Scene {
         )
     }
 
+    /// The interaction at `h`, a hit of `ray`. The shapes read the ray's
+    /// origin and direction only (the hit brings the distance), so `ray`
+    /// is passed on as it is, not a copy cut at the hit.
     #[inline]
-    fn interaction(&self, ray: &Ray, closest: &Ray, h: &HitRecord) -> SurfaceInteraction {
+    fn interaction(&self, ray: &Ray, h: &HitRecord) -> SurfaceInteraction {
         let shape = &self.shapes[h.shape as usize];
         let mut si = match h.instance {
-            // The shape's interaction already looks back along `closest`,
-            // whose direction is `ray`'s.
+            // The shape's interaction already looks back along the ray.
             None => match shape {
                 Shape::Sphere(s) if self.free_frame[h.shape as usize] => {
-                    s.interaction_free_frame(closest, *h.hit)
+                    s.interaction_free_frame(ray, *h.hit)
                 }
                 Shape::Disk(d) if self.free_frame[h.shape as usize] => {
-                    d.interaction_free_frame(closest, *h.hit)
+                    d.interaction_free_frame(ray, *h.hit)
                 }
-                Shape::Sphere(s) if self.uv_unread => s.interaction_without_uv(closest, *h.hit),
-                _ => shape.interaction(&self.meshes, h.prim, closest, *h.hit),
+                Shape::Sphere(s) if self.uv_unread => s.interaction_without_uv(ray, *h.hit),
+                _ => shape.interaction(&self.meshes, h.prim, ray, *h.hit),
             },
             Some(inst) => {
                 let t = &self.instances[inst as usize].to_world;
-                let local_ray = to_local_ray(closest, t);
+                let local_ray = to_local_ray(ray, t);
                 let local = shape.interaction(&self.meshes, h.prim, &local_ray, *h.hit);
                 let mut si = instance_to_world(&local, t);
                 si.wo = -ray.d.normalize();
