@@ -156,7 +156,7 @@ pub fn run(args: &[String]) -> Result<()> {
         }
         let y = median_run(&ours);
         let mut row = format!(
-            "| {name} | {:.2} ({:.2}) | {:.5} | {:.0} |",
+            "| {name} | {:.2} ({:.2}) | {:.6} | {:.0} |",
             y.total, y.load, y.rel_mse, y.peak_mb
         );
         for (v, runs) in theirs.iter().enumerate() {
@@ -164,7 +164,7 @@ pub fn run(args: &[String]) -> Result<()> {
             let efficiency = (y.rel_mse * y.total) / (m.rel_mse * m.total);
             log_sums[v] += efficiency.ln();
             row += &format!(
-                " {:.2} ({:.2}) | {:.5} | {:.0} | {efficiency:.2} |",
+                " {:.2} ({:.2}) | {:.6} | {:.0} | {efficiency:.3} |",
                 m.total, m.load, m.rel_mse, m.peak_mb
             );
         }
@@ -172,7 +172,7 @@ pub fn run(args: &[String]) -> Result<()> {
     }
     let mut row = "| geometric mean | | | |".to_string();
     for s in &log_sums {
-        row += &format!(" | | | {:.2} |", (s / names.len() as f64).exp());
+        row += &format!(" | | | {:.3} |", (s / names.len() as f64).exp());
     }
     println!("{row}");
     Ok(())
