@@ -612,7 +612,7 @@ impl Scene {
     ) -> Option<HitRecord> {
         // The best shape hit as scalars, its record made once at the end:
         // a record rebuilt per hit went through memory in pieces.
-        let (mut t_best, mut uv_best, mut item_best) = (0.0, glam::Vec2::ZERO, None);
+        let (mut uv_best, mut item_best) = (glam::Vec2::ZERO, None);
         let mut instance_best = None;
         for (i, item) in g.items[range.clone()].iter().enumerate() {
             match *item {
@@ -620,7 +620,7 @@ impl Scene {
                 Item::Prim { shape, prim } => {
                     let hit = self.shapes[shape as usize].intersect(&self.meshes, prim, ray);
                     if let Some(hit) = hit.filter(|hit| hit.t < t_max) {
-                        (t_max, t_best, uv_best) = (hit.t, hit.t, hit.uv);
+                        (t_max, uv_best) = (hit.t, hit.uv);
                         item_best = Some(i);
                     }
                 }
@@ -635,13 +635,14 @@ impl Scene {
                 }
             }
         }
+        // The best hit's distance is where the interval ends now.
         let i = item_best?;
         match g.items[range.start + i] {
             Item::Prim { shape, prim } => Some(HitRecord {
                 shape,
                 prim,
                 hit: WholeHit(PrimHit {
-                    t: t_best,
+                    t: t_max,
                     uv: uv_best,
                 }),
                 instance,
