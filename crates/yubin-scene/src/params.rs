@@ -52,10 +52,7 @@ fn category_of(family: Family) -> Category {
 
 impl ObjParams<'_, '_, '_> {
     fn check_color(&self, name: &str, rgb: Rgb, kind: ColorKind) -> Result<Rgb, ParamError> {
-        if !rgb.is_finite() || (kind != ColorKind::Unbounded && rgb.min_element() < 0.0) {
-            return Err(self.param_error(name, &format!("has an invalid value {rgb}")));
-        }
-        Ok(rgb)
+        yubin_core::params::check_color(self, name, rgb, kind)
     }
 
     /// The nested object called `name`, if there is one.

@@ -29,6 +29,25 @@ use crate::Rgb;
 use glam::{DMat4, Vec3};
 use std::fmt;
 
+pub mod record;
+
+pub use record::{ParamKind, ParamValue, Parameter, Record, Recorder, Replay};
+
+/// `rgb`, read as parameter `name` of `p` in role `kind`, if it is valid
+/// there: finite, and not negative unless the role is unbounded. Front
+/// ends and [`crate::Scene::update`] check colours with it alike.
+pub fn check_color(
+    p: &dyn Params,
+    name: &str,
+    rgb: Rgb,
+    kind: ColorKind,
+) -> Result<Rgb, ParamError> {
+    if !rgb.is_finite() || (kind != ColorKind::Unbounded && rgb.min_element() < 0.0) {
+        return Err(p.param_error(name, &format!("has an invalid value {rgb}")));
+    }
+    Ok(rgb)
+}
+
 /// A problem with a plugin's parameters. The message already names where
 /// (`scene.xml:42: ...`): the front end that made it knows the location.
 #[derive(Clone, Debug, PartialEq, Eq)]
