@@ -1,6 +1,8 @@
 //! Example 1: build a scene in code and render it with the path tracer.
-//! The README shows this file; `cargo test` compiles it, so the README's
-//! snippet cannot go stale. Run: `cargo run --release -p yubin-core --example 01_build_a_scene`.
+//! The README shows this file's code below this header, and
+//! `cargo test --doc -p yubin-core` compiles and runs the README's copy
+//! (`ReadmeDoctests` in `src/lib.rs`): keep the two the same.
+//! Run: `cargo run --release -p yubin-core --example 01_build_a_scene`.
 
 use std::f32::consts::FRAC_PI_2;
 use yubin_core::bsdf::{Bsdf, Diffuse};
@@ -45,7 +47,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }));
 
     // Mitsuba's camera convention: looking down +z, +y up.
-    let (w, h) = (320, 240);
+    let (w, h) = (64, 48);
     sb.camera(Camera::Perspective(Perspective::new(
         Affine3A::from_translation(Vec3::new(0.0, 1.5, -7.0)),
         45.0,
@@ -56,10 +58,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         1e4,
     )))
     .film(Film::new(w, h, Filter::Tent { radius: 1.0 }))
-    .sampler(Sampler::Sobol(Sobol { sample_count: 64 }));
+    .sampler(Sampler::Sobol(Sobol { sample_count: 4 }));
     let scene = sb.build()?;
 
-    let settings = RenderSettings { spp: 64, seed: 0 };
+    let settings = RenderSettings { spp: 4, seed: 0 };
     let out = render(
         &scene,
         &PathIntegrator::default(),

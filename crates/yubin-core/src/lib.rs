@@ -33,3 +33,10 @@ pub mod volume;
 pub use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec3A};
 pub use scene::{Scene, SceneBuilder, ShapeEmitter};
 pub use spectrum::Rgb;
+
+/// The README's code blocks, compiled and run by `cargo test --doc` so
+/// that its library example (a copy of `examples/01_build_a_scene.rs`)
+/// cannot go stale. Blocks that are not Rust name their language.
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+pub struct ReadmeDoctests;

@@ -313,8 +313,9 @@ impl<'a> Progressive<'a> {
         let crop = self.scene.film.crop_size;
         let active = (!self.active.is_empty()).then_some(self.active.as_slice());
         // One job per tile: rayon's default splitting hands each thread
-        // runs of tiles it cannot give away once started, which left one
-        // of two threads idle for the last ~8 % of a render.
+        // runs of tiles it cannot give away once started, which can leave
+        // a thread idle at the end of a render while another finishes its
+        // run.
         let results: Vec<TileResult> = tiles(crop)
             .par_iter()
             .with_max_len(1)

@@ -128,13 +128,12 @@ pub struct BuildStats {
     /// build in a process pays one-time costs of the operating system that
     /// depend on what ran before: faulting in fresh memory and, for arrays
     /// advised onto huge pages (both backends advise theirs), compacting
-    /// physical memory to find them. Run first, Embree's first build of n289
-    /// took 428 ms and its next ones 236 ms; run second, 231 ms from the
-    /// first. The warm-up makes the timed builds steady-state for both, in
-    /// either order (its time goes to the log). A second, untimed warm-up
-    /// runs on 2 threads before the 2-thread builds: yubin's first one or
-    /// two builds on a fresh 2-thread pool took 22–24 ms where the next
-    /// ones took 12–14 ms (n92), as its new threads' heaps were set up.
+    /// physical memory to find them; so whichever backend ran first would
+    /// pay for both. The warm-up makes the timed builds steady-state for
+    /// both, in either order (its time goes to the log). A second, untimed
+    /// warm-up runs on 2 threads before the 2-thread builds: the first
+    /// builds on a fresh 2-thread pool also pay for setting up its new
+    /// threads' heaps.
     pub warm_up: Option<Duration>,
     /// Each 1-thread build.
     pub build_1t: Vec<Duration>,

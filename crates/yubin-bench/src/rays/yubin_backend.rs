@@ -49,8 +49,8 @@ fn prepare(mesh: &Mesh) -> Result<(SceneBuilder, isize)> {
 ///
 /// The timed builds run with counting off: while on, every allocation
 /// updates shared atomics, and two threads allocating the binary tree's
-/// nodes at once made the 2-thread builds contend for their cache line
-/// (n92: 17–25 ms counted against 12–15 ms uncounted). Embree's
+/// nodes at once made the 2-thread builds contend for their cache line,
+/// which would time the counter rather than the build. Embree's
 /// allocations never pass through it (its bytes come from the device's
 /// memory monitor, a call per allocated block).
 pub fn build(

@@ -23,10 +23,10 @@ use yoke::Yoke;
 /// 4 KiB base pages).
 const HUGE_PAGE: usize = 2 << 20;
 /// Arrays from this size on are advised to use huge pages. Getting them
-/// can cost the kernel a compaction on first touch (measured: +14 ms on a
-/// 4 MB array, +100 ms on a 50 MB BVH's first build), which only arrays
-/// well beyond the TLB's 4 KiB reach (about 12 MB on this machine) earn
-/// back in tracing.
+/// can cost the kernel a compaction of physical memory on first touch,
+/// which only arrays well beyond the TLB's reach with 4 KiB pages (about
+/// 12 MB on a Zen 4 core) earn back in tracing, where otherwise
+/// nearly every node and leaf visit would miss the TLB.
 const ADVISE_FROM: usize = 16 << 20;
 /// Base page size assumed for the memory figure of small arrays.
 const PAGE: usize = 4 << 10;

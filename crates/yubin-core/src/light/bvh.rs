@@ -12,9 +12,9 @@
 //!
 //! where d is the distance to the box's centre, d² clamped from below by
 //! half the box diagonal's *length* (pbrt-v4's clamp: not scale-invariant,
-//! but measured on `yubin-bench manylights` it gives a tenth of the error
-//! of clamping d by half the diagonal, which flattens the importance of
-//! every large node around the point to its power), θ′ = max(0, θw − θo − θb) the angle between w and the
+//! but clamping d by half the diagonal instead flattens the importance of
+//! every large node around the point to its power, so the tree stops
+//! telling near lights from far ones where it matters most), θ′ = max(0, θw − θo − θb) the angle between w and the
 //! direction to p beyond what the normal cone and the box's angular size
 //! θb can absorb (0 importance when θ′ ≥ θe), and θi′ = max(0, θi − θb)
 //! the same at the receiver. Traversal picks a child with probability

@@ -69,9 +69,10 @@ fn unfold(r: f32, steep: bool, x_negative: bool, y_negative: bool) -> f32 {
 /// [`atan2`] of two (y, x) pairs at once: lane by lane the same
 /// operations, so the same angles bit for bit, with the two angles'
 /// chains of division and polynomial side by side in SSE lanes instead
-/// of one after the other: a direction's latitude–longitude coordinates
-/// (environment map −3.5 %; a sphere's φ and θ and a rectangle's two
-/// solid angles paired gained nothing measurable).
+/// of one after the other: a direction's latitude–longitude coordinates,
+/// which environment-map lookups wait on. (Pairing a sphere's φ and θ or
+/// a rectangle's two solid angles the same way gained nothing, so those
+/// stay scalar.)
 #[inline]
 pub fn atan2_pair(y: [f32; 2], x: [f32; 2]) -> [f32; 2] {
     let s = f32x4::splat;

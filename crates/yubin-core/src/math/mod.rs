@@ -62,9 +62,8 @@ impl Ray {
     /// LLVM would merge neighbouring components into one wide load, so
     /// each goes through [`std::hint::black_box`], which it cannot see
     /// through; that costs a store and a load of one stack slot, which do
-    /// forward. Measured (yubin-bench `rays`, 101,568 triangles, against
-    /// one 16-byte load per vector): primary rays 16 % faster in closest
-    /// hit and 17 % in any-hit.
+    /// forward, so traversal's set-up no longer waits on the caller's
+    /// stores.
     #[inline(always)]
     pub fn vectors(&self) -> RayVectors {
         let read = |v: Vec3| {
@@ -114,8 +113,8 @@ impl RayPacket {
 /// `e^x`, with the arguments whose exponential is 0 in `f32` answered
 /// without libm: its `expf` sends them to an out-of-line underflow
 /// handler that sets `errno`, and Beckmann's distribution and masking
-/// meet them at every grazing half vector (1.3 % of the rough scene's
-/// time). The same values bit for bit: `expf` is 0 below about −103.97.
+/// meet them at every grazing half vector, so the slow path is a common
+/// one there. The same values bit for bit: `expf` is 0 below about −103.97.
 #[inline]
 pub fn exp_or_zero(x: f32) -> f32 {
     if x < -104.0 {
@@ -127,9 +126,9 @@ pub fn exp_or_zero(x: f32) -> f32 {
 
 /// ⌊x⌋, the same as `f32::floor` bit for bit, by truncation: baseline
 /// x86-64 has no rounding instruction, and `floor` calls a software
-/// `floorf` (3.3 % of the textured scene's time, its checkerboards'
-/// cells). At and beyond 2²³ every float is an integer already; NaN stays
-/// NaN and −0 stays −0.
+/// `floorf` (once per texture lookup, e.g. a checkerboard's cell). At and
+/// beyond 2²³ every float is an integer already; NaN stays NaN and −0
+/// stays −0.
 #[inline]
 pub fn floor(x: f32) -> f32 {
     if x.abs() < 8_388_608.0 {
@@ -153,8 +152,8 @@ pub fn floor3(v: Vec3) -> Vec3 {
 }
 
 /// sin a and cos a for |a| ≤ π/4, without libm's range reduction and call
-/// (`sincosf` was 3.4 % of the Cornell box's time, nearly all from the
-/// concentric disk map): Cephes' minimax polynomials for that interval
+/// (the concentric disk map, used by every cosine-weighted sample, only
+/// needs this interval): Cephes' minimax polynomials for that interval
 /// (Moshier 1989, "Methods and Programs for Mathematical Functions";
 /// `sinf.c`), within 2·10⁻⁷ of the exact values (`quarter_sin_cos_is_accurate`).
 #[inline]
