@@ -15,7 +15,8 @@
 //! single-ray arithmetic lane by lane, bit for bit; other shapes,
 //! triangles and instances are tested ray by ray.
 
-use super::{Group, HitRecord, Item, Scene};
+use super::traversal::{to_local_ray, Group, Item};
+use super::{HitRecord, Scene, WholeHit};
 use crate::accel::{Node, PacketLanes, PACKET_RAYS};
 use crate::math::{Ray, RayPacket};
 use crate::shape::{PrimHit, Shape, ShapeModel, TrianglePackets, WatertightRay};
@@ -40,8 +41,8 @@ struct PacketHits<'r> {
     /// Per lane, the distance to its closest hit so far (its ray's end
     /// before one). Kept in a register and updated by blends: written
     /// lane by lane to memory and read back whole for the next box or
-    /// shape test, it could not be forwarded (a stall after every leaf,
-    /// 6 % of the packet traversal in the Cornell box).
+    /// shape test, it could not be forwarded, and every leaf ended in a
+    /// stall.
     t_max: f32x8,
     best: &'r mut [Option<HitRecord>; PACKET_RAYS],
 }
@@ -99,7 +100,7 @@ impl PacketHits<'_> {
         self.best[lane] = Some(HitRecord {
             shape,
             prim,
-            hit: super::WholeHit(hit),
+            hit: WholeHit(hit),
             instance,
         });
     }
@@ -121,7 +122,7 @@ impl PacketHits<'_> {
 
 /// The closest hits of a packet in a small tree ([`Scene::closest_packet`]),
 /// compiled twice, for baseline x86-64 and for AVX2 with FMA, and chosen
-/// by the CPU at run time, as single-ray traversal is (`scene.rs`): with
+/// by the CPU at run time, as single-ray traversal is (`traversal.rs`): with
 /// AVX2 the box, triangle and shape tests take one instruction per step
 /// instead of two, and give the same hits bit for bit.
 // A build for AVX2 calls that version directly, leaving the dispatcher's
@@ -213,8 +214,8 @@ struct PacketKernels<B, T, S, L> {
     triangles: T,
     shapes: S,
     /// [`blend_lanes`] or [`blend_lanes_avx2`] for closest hits; any-hit
-    /// traversal needs none (`()`: blending its emptied intervals in was
-    /// 1.4 % slower in the Cornell box than building them).
+    /// traversal needs none (`()`): its emptied intervals are built
+    /// directly, which is cheaper than blending them in.
     blend: L,
 }
 
@@ -449,7 +450,7 @@ impl Scene {
                 let placed = &self.instances[inst as usize];
                 let group: &Group = &self.groups[placed.group as usize];
                 for lane in lanes_of(mask) {
-                    let local = super::to_local_ray(&hits.ray(lane), &placed.to_world);
+                    let local = to_local_ray(&hits.ray(lane), &placed.to_world);
                     if let Some(h) = self.closest_in_group(group, &local, Some(inst)) {
                         hits.record(lane, h, &blend);
                     }
@@ -463,7 +464,7 @@ impl Scene {
 mod tests {
     use super::*;
     use crate::sampler::Pcg32;
-    use crate::scene::tests::{mixed_scene, random_ray};
+    use crate::scene::traversal::tests::{mixed_scene, random_ray};
 
     /// Rays with intervals that start late or end early, now and then.
     fn random_rays(rng: &mut Pcg32) -> [Ray; PACKET_RAYS] {

@@ -417,7 +417,7 @@ pub(crate) struct LaneTests {
 }
 
 /// [`WatertightRay::lane_tests`] for traversal compiled for AVX2 (see
-/// `scene.rs`): in a build for AVX2 that is the portable test itself
+/// `scene/traversal.rs`): in a build for AVX2 that is the portable test itself
 /// (`wide` is AVX there).
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 #[inline(always)]
@@ -433,7 +433,7 @@ pub(crate) fn lane_tests_avx2(
 /// instruction instead of two SSE halves (`wide` picks its form by the
 /// build's flags, so code compiled for AVX2 at run time still gets the
 /// halves), for traversal compiled for AVX2 and chosen at run time (see
-/// `scene.rs`). The same operations in the same order, multiplications
+/// `scene/traversal.rs`). The same operations in the same order, multiplications
 /// and additions never fused, as the portable test on baseline x86-64:
 /// the same hits bit for bit (`avx2_triangle_test_equals_portable_one`).
 /// Only the arithmetic, which is small enough to inline into traversal;
@@ -630,7 +630,7 @@ mod tests {
     }
 
     /// The AVX2 packet test on this CPU, or `None` where it has no AVX2,
-    /// compiled for the targets of single-ray traversal (`scene.rs`).
+    /// compiled for the targets of single-ray traversal (`scene/traversal.rs`).
     #[multiversion::multiversion(targets(
         "x86_64+avx512f+avx512vl+avx512bw+avx512dq+avx2+fma",
         "x86_64+avx2+fma"
