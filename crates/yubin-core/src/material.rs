@@ -53,4 +53,19 @@ impl Materials {
         self.bsdfs.push(b);
         self.bsdfs.len() as u32 - 1
     }
+
+    /// Puts `b` in place of BSDF `index`, with the tables it needs.
+    pub fn replace_bsdf(&mut self, index: u32, mut b: Bsdf) {
+        b.prepare(self);
+        self.bsdfs[index as usize] = b;
+    }
+
+    /// Makes every BSDF's tables again (after a texture changed).
+    pub fn prepare_bsdfs(&mut self) {
+        for i in 0..self.bsdfs.len() {
+            let mut b = self.bsdfs[i];
+            b.prepare(self);
+            self.bsdfs[i] = b;
+        }
+    }
 }

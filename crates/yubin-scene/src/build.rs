@@ -18,7 +18,6 @@ use crate::error::{Location, SceneError};
 use crate::image_io::read_texture;
 use crate::mesh::{obj::load_obj, ply::load_ply, serialized::load_serialized, MeshData};
 use crate::params::{to_param, ObjParams};
-use glam::DMat4;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
@@ -26,8 +25,8 @@ use yubin_core::bsdf::Bsdf;
 use yubin_core::camera::Sensor;
 use yubin_core::integrator::{Integrator, PathIntegrator};
 use yubin_core::light::EmitterOptions;
-use yubin_core::math::Transform;
-use yubin_core::params::{ColorKind, ParamError, Params};
+use yubin_core::params::{ColorKind, ParamError, Params, Record, Recorder};
+use yubin_core::scene::{EditTarget, Editable};
 use yubin_core::shape::{BuiltShape, MeshShape, Shape, TriangleMesh};
 use yubin_core::spectrum::Rgb;
 use yubin_core::texture::Tex;
@@ -78,6 +77,8 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         reading: Vec::new(),
         texture_reads: HashMap::new(),
         bsdf_reads: HashMap::new(),
+        keys: std::collections::HashSet::new(),
+        parents: Vec::new(),
     };
     let root = &desc.root;
     let integrator = match root.single_child(Category::Integrator)? {
@@ -123,13 +124,13 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
             // Built (and checked) even when nothing refers to it.
             Category::Medium if obj.id.is_some() => {
                 child.used.set(true);
-                b.medium(obj)?;
+                b.medium(obj, "medium")?;
             }
             // Built (and checked) even when nothing refers to it, as
             // Mitsuba loads every declared object.
             Category::Texture if obj.id.is_some() => {
                 child.used.set(true);
-                b.texture(obj)?;
+                b.texture(obj, "texture")?;
             }
             Category::Phase if obj.id.is_some() => {
                 child.used.set(true);
@@ -189,6 +190,11 @@ pub(crate) struct Builder<'a> {
     texture_reads: HashMap<u32, Vec<u32>>,
     /// Mesh attributes each built BSDF reads through its textures.
     bsdf_reads: HashMap<u32, Vec<u32>>,
+    /// Keys given to editable objects (`Scene::parameters`).
+    keys: std::collections::HashSet<String>,
+    /// Keys of the objects being built, innermost last: a nested object
+    /// without an id is named after its parent.
+    parents: Vec<String>,
 }
 
 /// The constructor of `obj`'s plugin type in a family's plugin table; an
@@ -211,21 +217,6 @@ fn unknown_type(obj: &Object, known: &str) -> SceneError {
     ))
 }
 
-fn transform_of(obj: &Object, name: &str) -> Result<Transform, SceneError> {
-    let m: DMat4 = obj.transform(name)?;
-    Transform::from_mat4(m.as_mat4()).ok_or_else(|| {
-        let loc = if obj.has(name) {
-            obj.loc_of(name).clone()
-        } else {
-            obj.loc.clone()
-        };
-        SceneError::at(
-            &loc,
-            format!("\"{name}\" of {} is not invertible", obj.describe()),
-        )
-    })
-}
-
 impl Builder<'_> {
     fn integrator(&mut self, obj: &Object) -> Result<Box<dyn Integrator>, SceneError> {
         Ok(yubin_core::integrator::from_params(&mut ObjParams {
@@ -236,7 +227,17 @@ impl Builder<'_> {
 
     /// Builds camera, film and sampler; returns the sampler's seed.
     fn sensor(&mut self, obj: &Object) -> Result<u32, SceneError> {
-        let sensor = Sensor::from_params(&mut ObjParams { obj, b: self })?;
+        let key = self.object_key(obj, "sensor");
+        let mut record = Record::default();
+        let sensor = Sensor::from_params(&mut Recorder::new(
+            &mut ObjParams { obj, b: self },
+            &mut record,
+        ))?;
+        self.sb.record(Editable {
+            key,
+            target: EditTarget::Sensor,
+            record,
+        });
         let medium = self.medium_child(obj, None)?;
         self.sb
             .camera_medium(medium)
@@ -257,9 +258,22 @@ impl Builder<'_> {
         }
         let build = plugin(obj, yubin_core::bsdf::PLUGINS)?;
         self.reading.push(Vec::new());
-        let bsdf = build(&mut ObjParams { obj, b: self })?;
+        let name = self.object_key(obj, "bsdf");
+        self.parents.push(name.clone());
+        let mut record = Record::default();
+        let bsdf = build(&mut Recorder::new(
+            &mut ObjParams { obj, b: self },
+            &mut record,
+        ));
+        self.parents.pop();
+        let bsdf = bsdf?;
         let reads = self.reading.pop().unwrap_or_default();
         let id = self.sb.add_bsdf(bsdf);
+        self.sb.record(Editable {
+            key: name,
+            target: EditTarget::Bsdf(id),
+            record,
+        });
         self.bsdfs.insert(key, id);
         if !reads.is_empty() {
             self.note_reads(Some(reads.clone()));
@@ -318,8 +332,9 @@ impl Builder<'_> {
         *self.sb.bsdf(id).expect("an index the builder returned")
     }
 
-    /// Builds a texture (once per shared object); returns its index.
-    pub(crate) fn texture(&mut self, obj: &Rc<Object>) -> Result<u32, ParamError> {
+    /// Builds a texture (once per shared object), the parameter `role` of
+    /// the object being built; returns its index.
+    pub(crate) fn texture(&mut self, obj: &Rc<Object>, role: &str) -> Result<u32, ParamError> {
         let key = Rc::as_ptr(obj);
         if let Some(&id) = self.textures.get(&key) {
             self.note_reads(self.texture_reads.get(&id).cloned());
@@ -327,9 +342,22 @@ impl Builder<'_> {
         }
         let build = plugin(obj, yubin_core::texture::PLUGINS).map_err(to_param)?;
         self.reading.push(Vec::new());
-        let texture = build(&mut ObjParams { obj, b: self })?;
+        let name = self.object_key(obj, role);
+        self.parents.push(name.clone());
+        let mut record = Record::default();
+        let texture = build(&mut Recorder::new(
+            &mut ObjParams { obj, b: self },
+            &mut record,
+        ));
+        self.parents.pop();
+        let texture = texture?;
         let reads = self.reading.pop().unwrap_or_default();
         let id = self.sb.add_texture(texture);
+        self.sb.record(Editable {
+            key: name,
+            target: EditTarget::Texture(id),
+            record,
+        });
         self.textures.insert(key, id);
         if !reads.is_empty() {
             self.note_reads(Some(reads.clone()));
@@ -368,14 +396,27 @@ impl Builder<'_> {
         Ok(grid)
     }
 
-    /// Builds a medium (once per shared object); returns its index.
-    fn medium(&mut self, obj: &Rc<Object>) -> Result<u32, SceneError> {
+    /// Builds a medium (once per shared object), the `role` of the object
+    /// being built; returns its index.
+    fn medium(&mut self, obj: &Rc<Object>, role: &str) -> Result<u32, SceneError> {
         let key = Rc::as_ptr(obj);
         if let Some(&id) = self.media.get(&key) {
             return Ok(id);
         }
-        let medium = yubin_core::medium::from_params(&mut ObjParams { obj, b: self })?;
-        let id = self.sb.add_medium(medium);
+        let name = self.object_key(obj, role);
+        self.parents.push(name.clone());
+        let mut record = Record::default();
+        let medium = yubin_core::medium::from_params(&mut Recorder::new(
+            &mut ObjParams { obj, b: self },
+            &mut record,
+        ));
+        self.parents.pop();
+        let id = self.sb.add_medium(medium?);
+        self.sb.record(Editable {
+            key: name,
+            target: EditTarget::Medium(id),
+            record,
+        });
         self.media.insert(key, id);
         Ok(id)
     }
@@ -402,7 +443,9 @@ impl Builder<'_> {
                 .single_child(Category::Medium)?
                 .map(|c| c.object.clone()),
         };
-        child.map(|c| self.medium(&c)).transpose()
+        child
+            .map(|c| self.medium(&c, name.unwrap_or("medium")))
+            .transpose()
     }
 
     /// A `<spectrum type="...">` object as RGB for its role.
@@ -425,7 +468,7 @@ impl Builder<'_> {
     fn area_radiance(
         &mut self,
         obj: &Object,
-    ) -> Result<Option<(ShapeEmitter, EmitterOptions)>, SceneError> {
+    ) -> Result<Option<(ShapeEmitter, EmitterOptions, Editable)>, SceneError> {
         let Some(c) = obj.single_child(Category::Emitter)? else {
             return Ok(None);
         };
@@ -440,9 +483,19 @@ impl Builder<'_> {
             }
         };
         let e = e.clone();
-        let mut p = ObjParams { obj: &e, b: self };
-        let radiance = p.texture_or("radiance", ColorKind::Illuminant, Rgb::ONE)?;
-        let options = EmitterOptions::from_params(&mut p)?;
+        let key = self.object_key(&e, "emitter");
+        self.parents.push(key.clone());
+        let mut record = Record::default();
+        let read = |p: &mut dyn Params| -> Result<_, ParamError> {
+            let radiance = p.texture_or("radiance", ColorKind::Illuminant, Rgb::ONE)?;
+            Ok((radiance, EmitterOptions::from_params(p)?))
+        };
+        let read = read(&mut Recorder::new(
+            &mut ObjParams { obj: &e, b: self },
+            &mut record,
+        ));
+        self.parents.pop();
+        let (radiance, options) = read?;
         let reads_attributes = match radiance {
             Tex::Texture(t) => self.texture_reads.get(&t).is_some_and(|r| !r.is_empty()),
             Tex::Const(_) => false,
@@ -459,7 +512,15 @@ impl Builder<'_> {
         } else {
             ShapeEmitter::Area(radiance)
         };
-        Ok(Some((emitter, options)))
+        Ok(Some((
+            emitter,
+            options,
+            Editable {
+                key,
+                target: EditTarget::AreaEmitter(u32::MAX),
+                record,
+            },
+        )))
     }
 
     /// Builds a shape into group `group` (0: the world).
@@ -487,17 +548,28 @@ impl Builder<'_> {
                     ));
                 }
                 let g = self.shape_group(&target.object.clone())?;
-                let t = transform_of(obj, "to_world")?;
-                return self
+                let key = self.object_key(obj, "instance");
+                let mut record = Record::default();
+                let t = Recorder::new(&mut ObjParams { obj, b: self }, &mut record)
+                    .transform_or_identity("to_world")?;
+                let index = self
                     .sb
                     .add_instance(g, t)
-                    .map_err(|e| obj.error(e.to_string()));
+                    .map_err(|e| obj.error(e.to_string()))?;
+                self.sb.record(Editable {
+                    key,
+                    target: EditTarget::Instance(index),
+                    record,
+                });
+                return Ok(());
             }
             _ => {}
         }
-        let bsdf = self.shape_bsdf(obj)?;
-        let built = yubin_core::shape::from_params(&mut ObjParams { obj, b: self })?;
-        let emission = self.area_radiance(obj)?;
+        let key = self.object_key(obj, "shape");
+        self.parents.push(key.clone());
+        let built = self.shape_parts(obj);
+        self.parents.pop();
+        let (bsdf, built, record, emission) = built?;
         let shape = match Self::cube_as_mesh(
             built,
             emission.is_some(),
@@ -514,21 +586,85 @@ impl Builder<'_> {
         if let Some(b) = bsdf {
             self.check_attributes(obj, &shape, b)?;
         }
+        let analytic = !matches!(shape, Shape::Mesh(_));
         let id = self
             .sb
-            .add_shape_with_emitter(group, shape, bsdf, emission.map(|(e, _)| e))
+            .add_shape_with_emitter(group, shape, bsdf, emission.as_ref().map(|(e, ..)| *e))
             .map_err(|e| obj.error(e.to_string()))?;
-        if let Some((_, options)) = emission {
-            self.sb.set_shape_emitter_options(id, options);
+        if analytic {
+            self.sb.record(Editable {
+                key: key.clone(),
+                target: EditTarget::Shape(id),
+                record,
+            });
         }
-        let interior = self.medium_child(obj, Some("interior"))?;
-        let exterior = self.medium_child(obj, Some("exterior"))?;
+        if let Some((_, options, mut editable)) = emission {
+            self.sb.set_shape_emitter_options(id, options);
+            // An emitter on a shape in a group is copied per instance.
+            if let Some(e) = self.sb.emitter_of_shape(id).filter(|_| group == 0) {
+                editable.target = EditTarget::AreaEmitter(e);
+                self.sb.record(editable);
+            }
+        }
+        self.parents.push(key);
+        let media = (|| {
+            let interior = self.medium_child(obj, Some("interior"))?;
+            let exterior = self.medium_child(obj, Some("exterior"))?;
+            Ok::<_, SceneError>((interior, exterior))
+        })();
+        self.parents.pop();
+        let (interior, exterior) = media?;
         if interior.is_some() || exterior.is_some() {
             self.sb
                 .set_shape_media(id, interior, exterior)
                 .map_err(|e| obj.error(e.to_string()))?;
         }
         Ok(())
+    }
+
+    /// What a shape is made of: its BSDF, the shape its plugin builds
+    /// with the record of what it read, and its area emitter.
+    #[allow(clippy::type_complexity)]
+    fn shape_parts(
+        &mut self,
+        obj: &Object,
+    ) -> Result<
+        (
+            Option<u32>,
+            BuiltShape,
+            Record,
+            Option<(ShapeEmitter, EmitterOptions, Editable)>,
+        ),
+        SceneError,
+    > {
+        let bsdf = self.shape_bsdf(obj)?;
+        let mut record = Record::default();
+        let built = yubin_core::shape::from_params(&mut Recorder::new(
+            &mut ObjParams { obj, b: self },
+            &mut record,
+        ))?;
+        let emission = self.area_radiance(obj)?;
+        Ok((bsdf, built, record, emission))
+    }
+
+    /// The key of `obj` (`Scene::parameters`): its id, or its parent's key
+    /// and its `role` (`wall.bsdf`), or at the top level its plugin type;
+    /// `_1`, `_2`, … added while the name is taken.
+    fn object_key(&mut self, obj: &Object, role: &str) -> String {
+        let base = match (&obj.id, self.parents.last()) {
+            (Some(id), _) => id.clone(),
+            (None, Some(parent)) => format!("{parent}.{role}"),
+            (None, None) if role == "sensor" => role.to_string(),
+            (None, None) => obj.plugin_type.clone(),
+        };
+        let mut key = base.clone();
+        let mut n = 0;
+        while self.keys.contains(&key) {
+            n += 1;
+            key = format!("{base}_{n}");
+        }
+        self.keys.insert(key.clone());
+        key
     }
 
     /// A `cube` that emits, or whose BSDF reads MikkTSpace tangents, as
@@ -593,10 +729,11 @@ impl Builder<'_> {
             .children_of(Category::Shape)
             .map(|c| c.object.clone())
             .collect();
-        for s in &shapes {
-            self.shape(s, g)?;
-        }
-        Ok(g)
+        let name = self.object_key(obj, "shapegroup");
+        self.parents.push(name);
+        let built = shapes.iter().try_for_each(|s| self.shape(s, g));
+        self.parents.pop();
+        built.map(|()| g)
     }
 
     /// An `envmap`'s image must be lat-long; bad texels become 0 (warned).
@@ -632,14 +769,27 @@ impl Builder<'_> {
             let known: Vec<&str> = yubin_core::light::PLUGINS.iter().map(|(n, _)| *n).collect();
             unknown_type(obj, &format!("area, directionalarea, {}", known.join(", ")))
         })?;
-        let mut p = ObjParams { obj, b: self };
-        let options = EmitterOptions::from_params(&mut p)?;
-        let e = build(&mut p)?;
+        let key = self.object_key(obj, "emitter");
+        self.parents.push(key.clone());
+        let mut record = Record::default();
+        let built = (|| {
+            let mut obj_params = ObjParams { obj, b: self };
+            let p = &mut Recorder::new(&mut obj_params, &mut record);
+            let options = EmitterOptions::from_params(p)?;
+            Ok::<_, ParamError>((options, build(p)?))
+        })();
+        self.parents.pop();
+        let (options, e) = built?;
         if let yubin_core::light::Emitter::EnvMap(env) = e {
             self.check_envmap_image(obj, env.image)?;
         }
         let index = self.sb.add_emitter(e);
         self.sb.set_emitter_options(index, options);
+        self.sb.record(Editable {
+            key,
+            target: EditTarget::Emitter(index),
+            record,
+        });
         Ok(())
     }
 }

@@ -199,7 +199,7 @@ impl Params for ObjParams<'_, '_, '_> {
         if let Some(child) = self.obj.find_named_child(name) {
             if child.category == Category::Texture {
                 self.obj.child(name);
-                return self.b.texture(&child).map(|t| Some(Tex::Texture(t)));
+                return self.b.texture(&child, name).map(|t| Some(Tex::Texture(t)));
             }
         }
         Ok(self.color(name, kind)?.map(Tex::Const))
@@ -212,7 +212,7 @@ impl Params for ObjParams<'_, '_, '_> {
             .map(|c| c.object.clone())
             .collect();
         kids.iter()
-            .map(|k| self.b.texture(k).map(Tex::Texture))
+            .map(|k| self.b.texture(k, "texture").map(Tex::Texture))
             .collect()
     }
 

@@ -42,8 +42,17 @@ pub fn check_color(
     rgb: Rgb,
     kind: ColorKind,
 ) -> Result<Rgb, ParamError> {
-    if !rgb.is_finite() || (kind != ColorKind::Unbounded && rgb.min_element() < 0.0) {
-        return Err(p.param_error(name, &format!("has an invalid value {rgb}")));
+    let unbounded = kind == ColorKind::Unbounded;
+    if !rgb.is_finite() || (!unbounded && rgb.min_element() < 0.0) {
+        let allowed = if unbounded {
+            "finite"
+        } else {
+            "finite and not negative"
+        };
+        return Err(p.param_error(
+            name,
+            &format!("has an invalid value {rgb} (must be {allowed})"),
+        ));
     }
     Ok(rgb)
 }

@@ -6,6 +6,7 @@
 //! distributions, the light sampler and the per-BSDF and per-shape
 //! tables the integrators read at every hit.
 
+use super::parameters::{Editable, Edits, GroupEntry};
 use super::traversal::{triangle_of_id, Group, Instance, Item, TriangleRun};
 use super::{Scene, ShapeEmitter, ShapeInfo};
 use crate::accel::{Bvh, PrimCost};
@@ -88,6 +89,9 @@ pub struct SceneBuilder {
     sampler: Sampler,
     media: Vec<crate::medium::Medium>,
     camera_medium: Option<u32>,
+    /// What [`crate::Scene::update`] needs: editable objects, groups'
+    /// contents in order.
+    edits: Edits,
 }
 
 impl Default for SceneBuilder {
@@ -128,7 +132,14 @@ impl SceneBuilder {
             sampler: Sampler::default(),
             media: Vec::new(),
             camera_medium: None,
+            edits: Edits::new(),
         }
+    }
+
+    /// Makes an object editable under its key ([`Scene::parameters`],
+    /// [`Scene::update`]): what its plugin read and where it is.
+    pub fn record(&mut self, editable: Editable) {
+        self.edits.editables.push(editable);
     }
 
     /// Adds a BSDF; returns its index (for shapes and composite BSDFs).
@@ -195,6 +206,7 @@ impl SceneBuilder {
             m.attribute_set = self.materials.attributes.add_set(attributes);
         }
         self.meshes.push(m);
+        self.edits.counts.meshes_added += 1;
         self.meshes.len() as u32 - 1
     }
 
@@ -295,19 +307,14 @@ impl SceneBuilder {
             interior: None,
             exterior: None,
         });
-        let is_mesh = matches!(shape, Shape::Mesh(_));
-        self.groups[group as usize].extend((0..prims).map(|prim| {
-            if is_mesh {
-                Item::Triangle { shape: id, prim }
-            } else {
-                Item::Prim { shape: id, prim }
-            }
-        }));
+        let entry = GroupEntry::Shape { shape: id, prims };
+        entry.push_items(&self.shapes, &mut self.groups[group as usize]);
+        self.edits.add_to_group(group, entry);
         Ok(id)
     }
 
     /// Places group `group` in the world with `to_world`.
-    pub fn add_instance(&mut self, group: u32, to_world: Transform) -> Result<(), BuildError> {
+    pub fn add_instance(&mut self, group: u32, to_world: Transform) -> Result<u32, BuildError> {
         if group == 0 || group as usize >= self.groups.len() {
             return Err(BuildError::BadIndex {
                 what: "shape group",
@@ -327,8 +334,10 @@ impl SceneBuilder {
             to_world,
             placed_emitters: (0, 0),
         });
-        self.groups[0].push(Item::Instance(self.instances.len() as u32 - 1));
-        Ok(())
+        let index = self.instances.len() as u32 - 1;
+        self.groups[0].push(Item::Instance(index));
+        self.edits.add_to_group(0, GroupEntry::Instance(index));
+        Ok(index)
     }
 
     /// Adds a non-surface emitter (point, directional, environment). An
@@ -510,7 +519,10 @@ impl SceneBuilder {
         let light_sampler = self.build_light_sampler(&groups, &compensated, &light_distributions);
         let uv_unread = self.uv_unread_by_integrator && self.materials.textures.is_empty();
         let free_frame = self.free_frames(uv_unread);
+        self.edits.light_selection = self.light_selection;
+        self.edits.mis_compensation = self.mis_compensation;
         Ok(Scene {
+            edits: self.edits,
             uv_unread,
             free_frame,
             meshes: self.meshes,
@@ -580,44 +592,16 @@ impl SceneBuilder {
             .into_iter()
             .map(unbuilt_group)
             .collect();
+        let geometry = Geometry {
+            shapes: &self.shapes,
+            meshes: &self.meshes,
+            instances: &self.instances,
+        };
         for gi in (1..groups.len()).chain(std::iter::once(0)) {
-            let count = groups[gi].items.len();
-            if count > crate::accel::MAX_POSITIONS {
-                return Err(BuildError::TooManyPrimitives { count });
-            }
-            let bounds = self.item_bounds(&groups[gi].items, &groups);
-            let items = &groups[gi].items;
-            let mut bvh = Bvh::build_with_costs(&bounds, |i| item_cost(items[i]));
-            let g = &mut groups[gi];
-            let order = bvh
-                .take_leaf_order_packed()
-                .ok_or(BuildError::TooManyPrimitives { count })?;
-            lay_out_in_leaf_order(g, &order, &self.shapes, &self.meshes);
-            g.bvh = bvh;
+            build_group(&mut groups, gi, &geometry)?;
+            self.edits.counts.bvh_builds += 1;
         }
         Ok(groups)
-    }
-
-    /// The world bounds of each of `items`; an instance's are its group's
-    /// (in `groups`, built already), transformed.
-    fn item_bounds(&self, items: &[Item], groups: &[Group]) -> Vec<Bounds3> {
-        items
-            .par_iter()
-            .map(|item| match *item {
-                Item::Triangle { shape, prim } | Item::Prim { shape, prim } => {
-                    self.shapes[shape as usize].prim_bounds(&self.meshes, prim)
-                }
-                Item::Empty => Bounds3::EMPTY,
-                Item::Instance(i) => {
-                    let inst = &self.instances[i as usize];
-                    let local = groups[inst.group as usize].bvh.bounds();
-                    if local.is_empty() {
-                        return Bounds3::EMPTY;
-                    }
-                    Bounds3::from_points(local.corners().map(|c| inst.to_world.point(c)))
-                }
-            })
-            .collect()
     }
 
     /// Per emitter, whether light sampling may leave to BSDF sampling the
@@ -658,14 +642,7 @@ impl SceneBuilder {
     /// `bsdf_flags`, per BSDF), and whether some shape lets light
     /// straight through with `thindielectric` slabs counted.
     fn pass_through(&self, bsdf_flags: &[crate::bsdf::BsdfFlags]) -> (bool, bool) {
-        let has_pass_through = self
-            .shape_info
-            .iter()
-            .any(|info| bsdf_flags[info.bsdf as usize].intersects(crate::bsdf::BsdfFlags::NULL));
-        let has_null_transmission = self.shape_info.iter().any(|info| {
-            self.materials.bsdfs[info.bsdf as usize].lets_light_through(&self.materials)
-        });
-        (has_pass_through, has_null_transmission)
+        pass_through(&self.shape_info, &self.materials, bsdf_flags)
     }
 
     /// The light sampler over the emitters, in a scene whose geometry is
@@ -702,17 +679,95 @@ impl SceneBuilder {
     /// Per shape, whether its hits may take any shading frame about the
     /// normal: nothing reads uv (`uv_unread`) and its BSDF turns freely.
     fn free_frames(&self, uv_unread: bool) -> Vec<bool> {
-        (self.shape_info.iter())
-            .map(|info| {
-                let bsdf = &self.materials.bsdfs[info.bsdf as usize];
-                uv_unread && bsdf.turns_freely(&self.materials)
-            })
-            .collect()
+        free_frames(&self.shape_info, &self.materials, uv_unread)
     }
 }
 
+/// Whether some shape's BSDF lets light through (`null`, `mask`; by
+/// `bsdf_flags`, per BSDF), and whether some shape lets light straight
+/// through with `thindielectric` slabs counted.
+pub(super) fn pass_through(
+    shape_info: &[ShapeInfo],
+    materials: &Materials,
+    bsdf_flags: &[crate::bsdf::BsdfFlags],
+) -> (bool, bool) {
+    let has_pass_through = (shape_info.iter())
+        .any(|info| bsdf_flags[info.bsdf as usize].intersects(crate::bsdf::BsdfFlags::NULL));
+    let has_null_transmission = (shape_info.iter())
+        .any(|info| materials.bsdfs[info.bsdf as usize].lets_light_through(materials));
+    (has_pass_through, has_null_transmission)
+}
+
+/// Per shape, whether its hits may take any shading frame about the
+/// normal: nothing reads uv (`uv_unread`) and its BSDF turns freely.
+pub(super) fn free_frames(
+    shape_info: &[ShapeInfo],
+    materials: &Materials,
+    uv_unread: bool,
+) -> Vec<bool> {
+    (shape_info.iter())
+        .map(|info| {
+            let bsdf = &materials.bsdfs[info.bsdf as usize];
+            uv_unread && bsdf.turns_freely(materials)
+        })
+        .collect()
+}
+
+/// What a group's BVH is built over.
+pub(super) struct Geometry<'a> {
+    pub(super) shapes: &'a [Shape],
+    pub(super) meshes: &'a [TriangleMesh],
+    pub(super) instances: &'a [Instance],
+}
+
+/// Builds the BVH of group `gi` of `groups` (whose items are in the order
+/// they were added) and lays the group out in its leaf order; the groups
+/// its instances place must be built already.
+pub(super) fn build_group(
+    groups: &mut [Group],
+    gi: usize,
+    geometry: &Geometry,
+) -> Result<(), BuildError> {
+    let count = groups[gi].items.len();
+    if count > crate::accel::MAX_POSITIONS {
+        return Err(BuildError::TooManyPrimitives { count });
+    }
+    let bounds = item_bounds(&groups[gi].items, groups, geometry);
+    let items = &groups[gi].items;
+    let mut bvh = Bvh::build_with_costs(&bounds, |i| item_cost(items[i]));
+    let g = &mut groups[gi];
+    let order = bvh
+        .take_leaf_order_packed()
+        .ok_or(BuildError::TooManyPrimitives { count })?;
+    lay_out_in_leaf_order(g, &order, geometry.shapes, geometry.meshes);
+    g.bvh = bvh;
+    Ok(())
+}
+
+/// The world bounds of each of `items`; an instance's are its group's
+/// (in `groups`, built already), transformed.
+fn item_bounds(items: &[Item], groups: &[Group], geometry: &Geometry) -> Vec<Bounds3> {
+    items
+        .par_iter()
+        .map(|item| match *item {
+            Item::Triangle { shape, prim } | Item::Prim { shape, prim } => {
+                geometry.shapes[shape as usize].prim_bounds(geometry.meshes, prim)
+            }
+            Item::Empty => Bounds3::EMPTY,
+            Item::Instance(i) => {
+                let inst = &geometry.instances[i as usize];
+                let local = groups[inst.group as usize].bvh.bounds();
+                if local.is_empty() {
+                    return Bounds3::EMPTY;
+                }
+                Bounds3::from_points(local.corners().map(|c| inst.to_world.point(c)))
+            }
+        })
+        .collect()
+}
+
 /// A group of `items` in the order they were added, its BVH not built.
-fn unbuilt_group(items: Vec<Item>) -> Group {
+pub(super) fn unbuilt_group(items: Vec<Item>) -> Group {
     Group {
         tri_runs: triangle_runs(&items),
         items,

@@ -27,9 +27,11 @@ mod build;
 mod emitters;
 mod media;
 mod packet;
+mod parameters;
 mod traversal;
 
 pub use build::{BuildError, SceneBuilder};
+pub use parameters::{EditTarget, Editable, RebuildCounts};
 
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
@@ -206,6 +208,8 @@ pub struct Scene {
     /// ([`Bsdf::turns_freely`]); spheres and disks then build theirs from
     /// the normal alone ([`crate::shape::Sphere::interaction_free_frame`]).
     free_frame: Vec<bool>,
+    /// Editable objects and what updates rebuild ([`Scene::update`]).
+    edits: parameters::Edits,
 }
 
 impl Scene {
