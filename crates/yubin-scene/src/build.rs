@@ -144,10 +144,18 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
                 child.used.set(true);
                 b.spectrum_object(obj, ColorKind::Unbounded)?;
             }
-            // Declared to be referenced: built where a `<ref>` uses it
-            // (Mitsuba's docs scenes declare a sampler for the sensor so).
+            // Declared to be referenced (Mitsuba's docs scenes declare a
+            // sampler for the sensor so): built where a `<ref>` uses it,
+            // and here too, so that one nobody refers to is checked and
+            // its parameters count as read, as Mitsuba loads it.
             Category::Sampler | Category::Film | Category::Rfilter if obj.id.is_some() => {
                 child.used.set(true);
+                let p = &mut ObjParams { obj, b: &mut b };
+                match obj.category {
+                    Category::Sampler => yubin_core::sampler::Sampler::from_params(p).map(drop),
+                    Category::Film => yubin_core::film::Film::from_params(p).map(drop),
+                    _ => yubin_core::filter::Filter::from_params(p).map(drop),
+                }?;
             }
             _ => {}
         }
