@@ -177,6 +177,23 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
     })
 }
 
+/// An object's key and what its plugin read, before it has a place in
+/// the scene.
+struct Recorded {
+    key: String,
+    record: Record,
+}
+
+impl Recorded {
+    fn of(self, target: EditTarget) -> Editable {
+        Editable {
+            key: self.key,
+            target,
+            record: self.record,
+        }
+    }
+}
+
 /// The builder's state: the scene under construction and what has been
 /// built of the description (shared objects are built once).
 pub(crate) struct Builder<'a> {
@@ -235,17 +252,8 @@ impl Builder<'_> {
 
     /// Builds camera, film and sampler; returns the sampler's seed.
     fn sensor(&mut self, obj: &Object) -> Result<u32, SceneError> {
-        let key = self.object_key(obj, "sensor");
-        let mut record = Record::default();
-        let sensor = Sensor::from_params(&mut Recorder::new(
-            &mut ObjParams { obj, b: self },
-            &mut record,
-        ))?;
-        self.sb.record(Editable {
-            key,
-            target: EditTarget::Sensor,
-            record,
-        });
+        let (sensor, editable) = self.recorded(obj, "sensor", Sensor::from_params)?;
+        self.sb.record(editable.of(EditTarget::Sensor));
         let medium = self.medium_child(obj, None)?;
         self.sb
             .camera_medium(medium)
@@ -266,22 +274,10 @@ impl Builder<'_> {
         }
         let build = plugin(obj, yubin_core::bsdf::PLUGINS)?;
         self.reading.push(Vec::new());
-        let name = self.object_key(obj, "bsdf");
-        self.parents.push(name.clone());
-        let mut record = Record::default();
-        let bsdf = build(&mut Recorder::new(
-            &mut ObjParams { obj, b: self },
-            &mut record,
-        ));
-        self.parents.pop();
-        let bsdf = bsdf?;
+        let (bsdf, editable) = self.recorded(obj, "bsdf", build)?;
         let reads = self.reading.pop().unwrap_or_default();
         let id = self.sb.add_bsdf(bsdf);
-        self.sb.record(Editable {
-            key: name,
-            target: EditTarget::Bsdf(id),
-            record,
-        });
+        self.sb.record(editable.of(EditTarget::Bsdf(id)));
         self.bsdfs.insert(key, id);
         if !reads.is_empty() {
             self.note_reads(Some(reads.clone()));
@@ -350,22 +346,10 @@ impl Builder<'_> {
         }
         let build = plugin(obj, yubin_core::texture::PLUGINS).map_err(to_param)?;
         self.reading.push(Vec::new());
-        let name = self.object_key(obj, role);
-        self.parents.push(name.clone());
-        let mut record = Record::default();
-        let texture = build(&mut Recorder::new(
-            &mut ObjParams { obj, b: self },
-            &mut record,
-        ));
-        self.parents.pop();
-        let texture = texture?;
+        let (texture, editable) = self.recorded(obj, role, build)?;
         let reads = self.reading.pop().unwrap_or_default();
         let id = self.sb.add_texture(texture);
-        self.sb.record(Editable {
-            key: name,
-            target: EditTarget::Texture(id),
-            record,
-        });
+        self.sb.record(editable.of(EditTarget::Texture(id)));
         self.textures.insert(key, id);
         if !reads.is_empty() {
             self.note_reads(Some(reads.clone()));
@@ -411,20 +395,9 @@ impl Builder<'_> {
         if let Some(&id) = self.media.get(&key) {
             return Ok(id);
         }
-        let name = self.object_key(obj, role);
-        self.parents.push(name.clone());
-        let mut record = Record::default();
-        let medium = yubin_core::medium::from_params(&mut Recorder::new(
-            &mut ObjParams { obj, b: self },
-            &mut record,
-        ));
-        self.parents.pop();
-        let id = self.sb.add_medium(medium?);
-        self.sb.record(Editable {
-            key: name,
-            target: EditTarget::Medium(id),
-            record,
-        });
+        let (medium, editable) = self.recorded(obj, role, yubin_core::medium::from_params)?;
+        let id = self.sb.add_medium(medium);
+        self.sb.record(editable.of(EditTarget::Medium(id)));
         self.media.insert(key, id);
         Ok(id)
     }
@@ -476,7 +449,7 @@ impl Builder<'_> {
     fn area_radiance(
         &mut self,
         obj: &Object,
-    ) -> Result<Option<(ShapeEmitter, EmitterOptions, Editable)>, SceneError> {
+    ) -> Result<Option<(ShapeEmitter, EmitterOptions, Recorded)>, SceneError> {
         let Some(c) = obj.single_child(Category::Emitter)? else {
             return Ok(None);
         };
@@ -491,19 +464,11 @@ impl Builder<'_> {
             }
         };
         let e = e.clone();
-        let key = self.object_key(&e, "emitter");
-        self.parents.push(key.clone());
-        let mut record = Record::default();
         let read = |p: &mut dyn Params| -> Result<_, ParamError> {
             let radiance = p.texture_or("radiance", ColorKind::Illuminant, Rgb::ONE)?;
             Ok((radiance, EmitterOptions::from_params(p)?))
         };
-        let read = read(&mut Recorder::new(
-            &mut ObjParams { obj: &e, b: self },
-            &mut record,
-        ));
-        self.parents.pop();
-        let (radiance, options) = read?;
+        let ((radiance, options), editable) = self.recorded(&e, "emitter", read)?;
         let reads_attributes = match radiance {
             Tex::Texture(t) => self.texture_reads.get(&t).is_some_and(|r| !r.is_empty()),
             Tex::Const(_) => false,
@@ -520,15 +485,7 @@ impl Builder<'_> {
         } else {
             ShapeEmitter::Area(radiance)
         };
-        Ok(Some((
-            emitter,
-            options,
-            Editable {
-                key,
-                target: EditTarget::AreaEmitter(u32::MAX),
-                record,
-            },
-        )))
+        Ok(Some((emitter, options, editable)))
     }
 
     /// Builds a shape into group `group` (0: the world).
@@ -606,12 +563,11 @@ impl Builder<'_> {
                 record,
             });
         }
-        if let Some((_, options, mut editable)) = emission {
+        if let Some((_, options, editable)) = emission {
             self.sb.set_shape_emitter_options(id, options);
             // An emitter on a shape in a group is copied per instance.
             if let Some(e) = self.sb.emitter_of_shape(id).filter(|_| group == 0) {
-                editable.target = EditTarget::AreaEmitter(e);
-                self.sb.record(editable);
+                self.sb.record(editable.of(EditTarget::AreaEmitter(e)));
             }
         }
         self.parents.push(key);
@@ -641,7 +597,7 @@ impl Builder<'_> {
             Option<u32>,
             BuiltShape,
             Record,
-            Option<(ShapeEmitter, EmitterOptions, Editable)>,
+            Option<(ShapeEmitter, EmitterOptions, Recorded)>,
         ),
         SceneError,
     > {
@@ -653,6 +609,26 @@ impl Builder<'_> {
         ))?;
         let emission = self.area_radiance(obj)?;
         Ok((bsdf, built, record, emission))
+    }
+
+    /// Builds `obj` with `build` through a recorder, as the `role` of the
+    /// object being built (its key's last part when it has no id); nested
+    /// objects it builds are named after it.
+    fn recorded<T, E>(
+        &mut self,
+        obj: &Object,
+        role: &str,
+        build: impl FnOnce(&mut dyn Params) -> Result<T, E>,
+    ) -> Result<(T, Recorded), E> {
+        let key = self.object_key(obj, role);
+        self.parents.push(key.clone());
+        let mut record = Record::default();
+        let built = build(&mut Recorder::new(
+            &mut ObjParams { obj, b: self },
+            &mut record,
+        ));
+        self.parents.pop();
+        Ok((built?, Recorded { key, record }))
     }
 
     /// The key of `obj` (`Scene::parameters`): its id, or its parent's key
@@ -777,27 +753,17 @@ impl Builder<'_> {
             let known: Vec<&str> = yubin_core::light::PLUGINS.iter().map(|(n, _)| *n).collect();
             unknown_type(obj, &format!("area, directionalarea, {}", known.join(", ")))
         })?;
-        let key = self.object_key(obj, "emitter");
-        self.parents.push(key.clone());
-        let mut record = Record::default();
-        let built = (|| {
-            let mut obj_params = ObjParams { obj, b: self };
-            let p = &mut Recorder::new(&mut obj_params, &mut record);
+        let read = |p: &mut dyn Params| -> Result<_, ParamError> {
             let options = EmitterOptions::from_params(p)?;
-            Ok::<_, ParamError>((options, build(p)?))
-        })();
-        self.parents.pop();
-        let (options, e) = built?;
+            Ok((options, build(p)?))
+        };
+        let ((options, e), editable) = self.recorded(obj, "emitter", read)?;
         if let yubin_core::light::Emitter::EnvMap(env) = e {
             self.check_envmap_image(obj, env.image)?;
         }
         let index = self.sb.add_emitter(e);
         self.sb.set_emitter_options(index, options);
-        self.sb.record(Editable {
-            key,
-            target: EditTarget::Emitter(index),
-            record,
-        });
+        self.sb.record(editable.of(EditTarget::Emitter(index)));
         Ok(())
     }
 }

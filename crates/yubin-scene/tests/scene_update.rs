@@ -67,14 +67,21 @@ const BASE: Edit = Edit {
     instance: r#"x="-1" y="-0.5" z="0.5""#,
 };
 
-fn load(e: &Edit) -> LoadedScene {
-    let text = SCENE
+fn text(e: &Edit) -> String {
+    SCENE
         .replace("{wall}", e.wall)
         .replace("{radiance}", e.radiance)
         .replace("{camera}", e.camera)
         .replace("{ball}", e.ball)
-        .replace("{instance}", e.instance);
-    load_scene_str(&text, Path::new("update.xml"), &[]).expect("the test scene loads")
+        .replace("{instance}", e.instance)
+}
+
+fn load_text(text: &str) -> LoadedScene {
+    load_scene_str(text, Path::new("update.xml"), &[]).expect("the test scene loads")
+}
+
+fn load(e: &Edit) -> LoadedScene {
+    load_text(&text(e))
 }
 
 fn image(s: &LoadedScene) -> Vec<f32> {
@@ -127,17 +134,8 @@ fn a_float_edit_renders_as_the_edited_file() {
     s.scene
         .update("metal.alpha.value", ParamValue::Float(0.05))
         .unwrap();
-    let fresh = SCENE.replace(
-        r#"name="alpha" value="0.2""#,
-        r#"name="alpha" value="0.05""#,
-    );
-    let fresh = fresh
-        .replace("{wall}", BASE.wall)
-        .replace("{radiance}", BASE.radiance)
-        .replace("{camera}", BASE.camera)
-        .replace("{ball}", BASE.ball)
-        .replace("{instance}", BASE.instance);
-    let fresh = load_scene_str(&fresh, Path::new("update.xml"), &[]).unwrap();
+    let alpha = |v: &str| format!(r#"name="alpha" value="{v}""#);
+    let fresh = load_text(&text(&BASE).replace(&alpha("0.2"), &alpha("0.05")));
     assert!(image(&s) == image(&fresh));
     assert!(
         image(&s) != image(&load(&BASE)),
