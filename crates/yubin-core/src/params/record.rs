@@ -129,9 +129,7 @@ impl ParamKind {
             (ParamKind::Point | ParamKind::Vector, V::Vector(v)) => V::Vector(v),
             (ParamKind::Transform, V::Transform(m)) => V::Transform(m),
             (ParamKind::Color(_) | ParamKind::Texture(_), V::Color(c)) => V::Color(c),
-            (ParamKind::Color(_) | ParamKind::Texture(_), V::Float(v)) => {
-                V::Color(Rgb::splat(v))
-            }
+            (ParamKind::Color(_) | ParamKind::Texture(_), V::Float(v)) => V::Color(Rgb::splat(v)),
             _ => return None,
         })
     }
@@ -253,13 +251,10 @@ impl Record {
         if let Some(i) = (self.entries.iter()).position(|e| entry_key("", e) == format!(".{path}"))
         {
             let e = &mut self.entries[i];
-            let value = e.kind.coerce(value.clone()).ok_or_else(|| {
-                format!(
-                    "is {}, not {}",
-                    e.kind.type_name(),
-                    value.type_name()
-                )
-            })?;
+            let value = e
+                .kind
+                .coerce(value.clone())
+                .ok_or_else(|| format!("is {}, not {}", e.kind.type_name(), value.type_name()))?;
             e.value = Some(value);
             if e.kind == ParamKind::Transform {
                 let name = e.name.clone();
@@ -278,7 +273,8 @@ impl Record {
                 }
             }
         }
-        if let Some((name, _)) = (self.textures.iter()).find(|(n, _)| path.starts_with(n.as_str())) {
+        if let Some((name, _)) = (self.textures.iter()).find(|(n, _)| path.starts_with(n.as_str()))
+        {
             return Err(format!(
                 "\"{name}\" is a texture: edit the texture's own parameters"
             ));
@@ -351,7 +347,9 @@ pub struct Recorder<'a> {
 
 impl std::fmt::Debug for Recorder<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Recorder").field("record", &self.record).finish()
+        f.debug_struct("Recorder")
+            .field("record", &self.record)
+            .finish()
     }
 }
 
@@ -474,35 +472,60 @@ impl Params for Recorder<'_> {
         self.inner.get_ref().has(name)
     }
     fn float(&mut self, name: &str) -> Result<Option<f32>, ParamError> {
-        self.value(name, ParamKind::Float, |p| p.float(name), |v| ParamValue::Float(*v))
+        self.value(
+            name,
+            ParamKind::Float,
+            |p| p.float(name),
+            |v| ParamValue::Float(*v),
+        )
     }
     fn integer(&mut self, name: &str) -> Result<Option<i64>, ParamError> {
-        self.value(name, ParamKind::Integer, |p| p.integer(name), |v| {
-            ParamValue::Integer(*v)
-        })
+        self.value(
+            name,
+            ParamKind::Integer,
+            |p| p.integer(name),
+            |v| ParamValue::Integer(*v),
+        )
     }
     fn boolean(&mut self, name: &str) -> Result<Option<bool>, ParamError> {
-        self.value(name, ParamKind::Boolean, |p| p.boolean(name), |v| {
-            ParamValue::Boolean(*v)
-        })
+        self.value(
+            name,
+            ParamKind::Boolean,
+            |p| p.boolean(name),
+            |v| ParamValue::Boolean(*v),
+        )
     }
     fn string(&mut self, name: &str) -> Result<Option<String>, ParamError> {
-        self.value(name, ParamKind::String, |p| p.string(name), |v| {
-            ParamValue::String(v.clone())
-        })
+        self.value(
+            name,
+            ParamKind::String,
+            |p| p.string(name),
+            |v| ParamValue::String(v.clone()),
+        )
     }
     fn point(&mut self, name: &str) -> Result<Option<Vec3>, ParamError> {
-        self.value(name, ParamKind::Point, |p| p.point(name), |v| ParamValue::Vector(*v))
+        self.value(
+            name,
+            ParamKind::Point,
+            |p| p.point(name),
+            |v| ParamValue::Vector(*v),
+        )
     }
     fn vector(&mut self, name: &str) -> Result<Option<Vec3>, ParamError> {
-        self.value(name, ParamKind::Vector, |p| p.vector(name), |v| {
-            ParamValue::Vector(*v)
-        })
+        self.value(
+            name,
+            ParamKind::Vector,
+            |p| p.vector(name),
+            |v| ParamValue::Vector(*v),
+        )
     }
     fn transform(&mut self, name: &str) -> Result<Option<DMat4>, ParamError> {
-        self.value(name, ParamKind::Transform, |p| p.transform(name), |m| {
-            ParamValue::Transform(*m)
-        })
+        self.value(
+            name,
+            ParamKind::Transform,
+            |p| p.transform(name),
+            |m| ParamValue::Transform(*m),
+        )
     }
     fn look_at_target(&mut self, name: &str) -> Option<Vec3> {
         let t = self.inner.get().look_at_target(name);
@@ -510,9 +533,12 @@ impl Params for Recorder<'_> {
         t
     }
     fn color(&mut self, name: &str, kind: ColorKind) -> Result<Option<Rgb>, ParamError> {
-        self.value(name, ParamKind::Color(kind), |p| p.color(name, kind), |c| {
-            ParamValue::Color(*c)
-        })
+        self.value(
+            name,
+            ParamKind::Color(kind),
+            |p| p.color(name, kind),
+            |c| ParamValue::Color(*c),
+        )
     }
     fn texture(&mut self, name: &str, kind: ColorKind) -> Result<Option<Tex>, ParamError> {
         let t = self.inner.get().texture(name, kind)?;
@@ -625,7 +651,8 @@ impl Params for Replay<'_> {
         family: Family,
         index: usize,
     ) -> Result<Option<NamedChild<'_>>, ParamError> {
-        let c = self.child_of(|q| matches!(q, ChildQuery::Nth(f, i) if *f == family && *i == index));
+        let c =
+            self.child_of(|q| matches!(q, ChildQuery::Nth(f, i) if *f == family && *i == index));
         Ok(c.and_then(|c| {
             let r = c.record.as_ref()?;
             Some((
@@ -639,7 +666,8 @@ impl Params for Replay<'_> {
         family: Family,
         name: &str,
     ) -> Result<Option<Box<dyn Params + '_>>, ParamError> {
-        let c = self.child_of(|q| matches!(q, ChildQuery::Named(f, n) if *f == family && n == name));
+        let c =
+            self.child_of(|q| matches!(q, ChildQuery::Named(f, n) if *f == family && n == name));
         Ok(c.and_then(|c| c.record.as_ref())
             .map(|r| Box::new(Replay::new(r, self.materials)) as Box<dyn Params>))
     }
@@ -661,8 +689,9 @@ impl Params for Replay<'_> {
         self.record.textures.iter().any(|(n, _)| n == name)
             || (self.record.images.iter()).any(|(n, i)| n == name && i.is_some())
             || (self.record.grids.iter()).any(|(n, g)| n == name && g.is_some())
-            || (self.record.children.iter())
-                .any(|c| matches!(&c.query, ChildQuery::Named(_, n) if n == name) && c.record.is_some())
+            || (self.record.children.iter()).any(|c| {
+                matches!(&c.query, ChildQuery::Named(_, n) if n == name) && c.record.is_some()
+            })
     }
     replay_getter!(float, f32, ParamKind::Float, ParamValue::Float(v) => v);
     replay_getter!(integer, i64, ParamKind::Integer, ParamValue::Integer(v) => v);
@@ -689,7 +718,9 @@ impl Params for Replay<'_> {
         }
         match self.value(name, ParamKind::Texture(kind))? {
             None => Ok(None),
-            Some(ParamValue::Color(c)) => check_color(self, name, c, kind).map(|c| Some(Tex::Const(c))),
+            Some(ParamValue::Color(c)) => {
+                check_color(self, name, c, kind).map(|c| Some(Tex::Const(c)))
+            }
             Some(other) => Err(self.param_error(name, &format!("holds {}", other.type_name()))),
         }
     }
@@ -767,10 +798,15 @@ mod tests {
         record.parameters("wall", &mut keys);
         assert_eq!(keys.len(), 1);
         assert_eq!(keys[0].key, "wall.reflectance.value");
-        assert!(record.set("reflectance.value", ParamValue::Boolean(true)).is_err());
+        assert!(record
+            .set("reflectance.value", ParamValue::Boolean(true))
+            .is_err());
         assert!(record.set("roughness", ParamValue::Float(0.1)).is_err());
         record
-            .set("reflectance.value", ParamValue::Color(Rgb::new(0.9, 0.1, 0.1)))
+            .set(
+                "reflectance.value",
+                ParamValue::Color(Rgb::new(0.9, 0.1, 0.1)),
+            )
             .unwrap();
         let mut q = MapParams::new().color("reflectance", Rgb::new(0.9, 0.1, 0.1));
         let (fresh, _) = recorded("diffuse", &mut q);
@@ -783,7 +819,10 @@ mod tests {
         let mut p = MapParams::new().color("reflectance", Rgb::splat(0.5));
         let (_, mut record) = recorded("diffuse", &mut p);
         record
-            .set("reflectance.value", ParamValue::Color(Rgb::new(-1.0, 0.0, 0.0)))
+            .set(
+                "reflectance.value",
+                ParamValue::Color(Rgb::new(-1.0, 0.0, 0.0)),
+            )
             .unwrap();
         let e = replayed("diffuse", &record).unwrap_err();
         assert!(e.0.contains("invalid value"), "{e}");
