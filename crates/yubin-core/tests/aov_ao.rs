@@ -10,7 +10,7 @@ use yubin_core::film::Film;
 use yubin_core::filter::Filter;
 use yubin_core::integrator::{AoIntegrator, AovIntegrator, Integrator, Layer, PathIntegrator};
 use yubin_core::math::{Ray, Transform};
-use yubin_core::render::{render, RenderOutput, RenderSettings};
+use yubin_core::render::{render, RenderOutput, RenderScene, RenderSettings, RenderState};
 use yubin_core::sampler::{Independent, Sampler};
 use yubin_core::shape::{Disk, Rectangle, Shape, Sphere};
 use yubin_core::{Rgb, Scene, SceneBuilder};
@@ -288,10 +288,12 @@ fn ao_at_origin(scene: &Scene, ao: &AoIntegrator, n: u32) -> (f64, f64) {
     // From the side, below the disc, towards the origin.
     let o = Vec3::new(3.0, 0.0, 0.25);
     let ray = Ray::new(o, (Vec3::ZERO - o).normalize());
+    let state = RenderState::new(scene, ao);
+    let render = RenderScene::new(scene, &state);
     let (mut sum, mut sum2) = (0.0f64, 0.0f64);
     for i in 0..n {
         let mut stream = scene.sampler.stream(i % 64, i / 64, i, 11);
-        let v = f64::from(ao.li(scene, &ray, &mut stream).x);
+        let v = f64::from(ao.li(&render, &ray, &mut stream).x);
         sum += v;
         sum2 += v * v;
     }
@@ -351,5 +353,7 @@ fn ao_is_zero_for_camera_rays_that_miss() {
     let ray = Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::Z);
     let mut stream = scene.sampler.stream(0, 0, 0, 0);
     let ao = AoIntegrator::default();
-    assert_eq!(ao.li(&scene, &ray, &mut stream), Rgb::ZERO);
+    let state = RenderState::new(&scene, &ao);
+    let render = RenderScene::new(&scene, &state);
+    assert_eq!(ao.li(&render, &ray, &mut stream), Rgb::ZERO);
 }

@@ -26,13 +26,7 @@ fn furnace(albedo: f32) -> Scene {
 
 /// A unit sphere of `bsdf` inside a white environment, seen by a camera.
 fn furnace_with(bsdf: Bsdf) -> Scene {
-    furnace_scene(bsdf, false)
-}
-
-/// [`furnace_with`], with MIS compensation as `compensated` says.
-fn furnace_scene(bsdf: Bsdf, compensated: bool) -> Scene {
     let mut b = SceneBuilder::new();
-    b.mis_compensation(compensated);
     let bsdf = b.add_bsdf(bsdf);
     b.add_shape(
         Shape::Sphere(Sphere::new(Vec3::ZERO, 1.0, false)),
@@ -56,6 +50,17 @@ fn furnace_scene(bsdf: Bsdf, compensated: bool) -> Scene {
     b.film(Film::new(RES, RES, Filter::Box));
     b.sampler(Sampler::Independent(Independent { sample_count: 64 }));
     b.build().unwrap()
+}
+
+/// The path tracer with `max_depth`, light-sampling the environment
+/// whole (no MIS compensation): light samples and BSDF samples both find
+/// it, weighed by MIS.
+fn path_uncompensated(max_depth: i32) -> PathIntegrator {
+    PathIntegrator {
+        max_depth,
+        mis_compensation: false,
+        ..Default::default()
+    }
 }
 
 /// Renders and returns every pixel's RGB.
@@ -85,10 +90,7 @@ fn assert_uniform(px: &[Rgb], expected: f32, tol_mean: f32, tol_pixel: f32, what
 #[test]
 fn white_furnace_path_tracer_renders_one_everywhere() {
     let scene = furnace(1.0);
-    let path = PathIntegrator {
-        max_depth: 64,
-        ..Default::default()
-    };
+    let path = path_uncompensated(64);
     assert_uniform(
         &pixels(&scene, &path, 256),
         1.0,
@@ -103,10 +105,7 @@ fn grey_furnace_matches_albedo() {
     // Background pixels see the environment (1), sphere pixels see ρ: check
     // the sphere's centre region only.
     let scene = furnace(0.5);
-    let path = PathIntegrator {
-        max_depth: 64,
-        ..Default::default()
-    };
+    let path = path_uncompensated(64);
     let px = pixels(&scene, &path, 256);
     let centre: Vec<Rgb> = (6..10)
         .flat_map(|y| (6..10).map(move |x| (y * RES + x) as usize))
@@ -123,7 +122,7 @@ fn grey_furnace_matches_albedo() {
 #[test]
 fn compensated_furnaces_render_their_albedo_without_noise() {
     for albedo in [1.0, 0.5] {
-        let scene = furnace_scene(Bsdf::Diffuse(Diffuse::new(Rgb::splat(albedo))), true);
+        let scene = furnace(albedo);
         let path = PathIntegrator {
             max_depth: 64,
             ..Default::default()
@@ -144,7 +143,14 @@ fn white_furnace_direct_integrator() {
     // Direct lighting of a convex object is the whole answer.
     let scene = furnace(1.0);
     assert_uniform(
-        &pixels(&scene, &DirectIntegrator::default(), 256),
+        &pixels(
+            &scene,
+            &DirectIntegrator {
+                mis_compensation: false,
+                ..Default::default()
+            },
+            256,
+        ),
         1.0,
         0.005,
         0.08,
@@ -156,14 +162,7 @@ fn white_furnace_direct_integrator() {
 fn furnace_can_fail() {
     // A too-bright BSDF must be caught by the same check.
     let scene = furnace(1.1);
-    let px = pixels(
-        &scene,
-        &PathIntegrator {
-            max_depth: 2,
-            ..Default::default()
-        },
-        64,
-    );
+    let px = pixels(&scene, &path_uncompensated(2), 64);
     let mean = px.iter().copied().sum::<Rgb>() / px.len() as f32;
     assert!(mean.x > 1.02, "{mean}");
 }
@@ -183,9 +182,8 @@ fn transmitting_lossless_bsdfs_vanish_in_a_white_furnace() {
         ),
     ];
     let path = PathIntegrator {
-        max_depth: 256,
         rr_depth: 1000,
-        ..Default::default()
+        ..path_uncompensated(256)
     };
     for (what, bsdf) in cases {
         assert_uniform(

@@ -161,10 +161,6 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         }
     }
     root.check_unused_tree()?;
-    if let Some(selection) = integrator.light_selection() {
-        b.sb.light_selection(selection);
-    }
-    b.sb.mis_compensation(integrator.mis_compensation());
     b.sb.uv_unread_by_integrator(!integrator.reads_uv());
     let scene =
         b.sb.build()

@@ -49,6 +49,7 @@ const SCENE: &str = r#"<scene version="3.0.0">
         <transform name="to_world"><rotate x="1" angle="90"/><translate y="2"/></transform>
         <emitter type="area"><rgb name="radiance" value="{radiance}"/></emitter>
     </shape>
+    <emitter type="constant" id="sky"><rgb name="radiance" value="{sky}"/></emitter>
 </scene>"#;
 
 struct Edit {
@@ -57,6 +58,7 @@ struct Edit {
     camera: &'static str,
     ball: &'static str,
     instance: &'static str,
+    sky: &'static str,
 }
 
 const BASE: Edit = Edit {
@@ -65,6 +67,7 @@ const BASE: Edit = Edit {
     camera: r#"<lookat origin="0, 0, -4" target="0, 0, 0" up="0, 1, 0"/>"#,
     ball: r#"x="0.5" y="0" z="0""#,
     instance: r#"x="-1" y="-0.5" z="0.5""#,
+    sky: "0.2, 0.2, 0.3",
 };
 
 fn text(e: &Edit) -> String {
@@ -74,6 +77,7 @@ fn text(e: &Edit) -> String {
         .replace("{camera}", e.camera)
         .replace("{ball}", e.ball)
         .replace("{instance}", e.instance)
+        .replace("{sky}", e.sky)
 }
 
 fn load_text(text: &str) -> LoadedScene {
@@ -154,6 +158,16 @@ fn an_emitter_edit_renders_as_the_edited_file_and_builds_no_bvh() {
         check_update("light.emitter.radiance.value", value, &edited),
         0
     );
+}
+
+#[test]
+fn an_environment_edit_renders_as_the_edited_file_and_builds_no_bvh() {
+    let edited = Edit {
+        sky: "0.5, 0.1, 0.05",
+        ..BASE
+    };
+    let value = ParamValue::Color(Rgb::new(0.5, 0.1, 0.05));
+    assert_eq!(check_update("sky.radiance.value", value, &edited), 0);
 }
 
 #[test]

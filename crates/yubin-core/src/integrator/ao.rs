@@ -34,9 +34,10 @@
 use super::Integrator;
 use crate::math::Ray;
 use crate::params::{ParamError, Params};
+use crate::render::RenderScene;
 use crate::sampler::SampleStream;
 use crate::sampling::square_to_cosine_hemisphere;
-use crate::{Rgb, Scene};
+use crate::Rgb;
 
 /// Ambient-occlusion settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -93,7 +94,7 @@ impl Integrator for AoIntegrator {
         true
     }
 
-    fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
+    fn li(&self, scene: &RenderScene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         let Some(si) = scene.intersect(ray) else {
             return Rgb::ZERO;
         };

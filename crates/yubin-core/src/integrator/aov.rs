@@ -74,8 +74,9 @@ use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::math::Ray;
 use crate::params::{Family, ParamError, Params};
+use crate::render::RenderScene;
 use crate::sampler::SampleStream;
-use crate::{Rgb, Scene};
+use crate::Rgb;
 use glam::Vec3;
 
 /// What one AOV records about the first hit.
@@ -232,7 +233,7 @@ impl AovIntegrator {
     /// is zero on entry; misses leave it so).
     fn write_aovs(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         ray: &Ray,
         hit: Option<&SurfaceInteraction>,
         out: &mut [f32],
@@ -264,7 +265,7 @@ impl AovIntegrator {
 
 /// The `albedo` AOV at a hit: Mitsuba 3's `eval_diffuse_reflectance` of
 /// the surface's BSDF, seen from the camera ray.
-pub fn albedo(scene: &Scene, si: &SurfaceInteraction) -> Rgb {
+pub fn albedo(scene: &RenderScene, si: &SurfaceInteraction) -> Rgb {
     let wo = si.to_local(si.wo);
     diffuse_reflectance(&scene.materials, scene.bsdf_of(si.shape), si, wo, 0)
 }
@@ -334,14 +335,14 @@ impl Integrator for AovIntegrator {
         !self.nested.is_empty() && self.nested.iter().all(|(_, i)| i.mis_compensation())
     }
 
-    fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
+    fn li(&self, scene: &RenderScene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         match self.nested.first() {
             Some((_, integrator)) => integrator.li(scene, ray, sampler),
             None => Rgb::ZERO,
         }
     }
 
-    fn sample(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream, out: &mut [f32]) {
+    fn sample(&self, scene: &RenderScene, ray: &Ray, sampler: &mut SampleStream, out: &mut [f32]) {
         let hit = scene.intersect(ray);
         let alpha = if hit.is_some() || !scene.environment_emitters.is_empty() {
             1.0

@@ -20,8 +20,9 @@ use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel};
 use crate::light::LightSelection;
 use crate::math::Ray;
 use crate::params::{ParamError, Params};
+use crate::render::RenderScene;
 use crate::sampler::SampleStream;
-use crate::{Rgb, Scene};
+use crate::Rgb;
 
 /// Direct-illumination settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -77,7 +78,7 @@ impl Integrator for DirectIntegrator {
         self.mis_compensation && self.bsdf_samples > 0
     }
 
-    fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
+    fn li(&self, scene: &RenderScene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         let Some(hit) = scene.closest(ray) else {
             return if self.hide_emitters {
                 Rgb::ZERO

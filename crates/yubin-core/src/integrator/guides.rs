@@ -20,8 +20,9 @@
 use super::{aov, environment_radiance, Integrator, Layer, RayOrigin};
 use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel};
 use crate::math::Ray;
+use crate::render::RenderScene;
 use crate::sampler::SampleStream;
-use crate::{Rgb, Scene};
+use crate::Rgb;
 use glam::Vec3;
 
 /// The most specular or null surfaces the guides follow.
@@ -78,7 +79,7 @@ impl DenoiserGuides {
 
     /// Follows the camera ray through specular and null surfaces to the
     /// first surface that is not purely specular.
-    fn first_hit(scene: &Scene, camera_ray: &Ray) -> FirstHit {
+    fn first_hit(scene: &RenderScene, camera_ray: &Ray) -> FirstHit {
         let ctx = BsdfContext::default();
         let mut ray = *camera_ray;
         let mut tint = Rgb::ONE;
@@ -154,11 +155,11 @@ impl Integrator for DenoiserGuides {
         self.inner.mis_compensation()
     }
 
-    fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
+    fn li(&self, scene: &RenderScene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         self.inner.li(scene, ray, sampler)
     }
 
-    fn sample(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream, out: &mut [f32]) {
+    fn sample(&self, scene: &RenderScene, ray: &Ray, sampler: &mut SampleStream, out: &mut [f32]) {
         let n = self.inner.channel_count();
         self.inner.sample(scene, ray, sampler, &mut out[..n]);
         let hit = Self::first_hit(scene, ray);

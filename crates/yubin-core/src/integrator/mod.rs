@@ -89,9 +89,10 @@ pub(crate) fn rr_depth_param(p: &mut dyn Params) -> Result<u32, ParamError> {
 use crate::interaction::SurfaceInteraction;
 use crate::math::Ray;
 use crate::params::{plugin_of, ParamError, Params};
+use crate::render::RenderScene;
 use crate::sampler::SampleStream;
 use crate::sampling::power_heuristic;
-use crate::{Rgb, Scene};
+use crate::Rgb;
 use glam::Vec3;
 
 /// A group of output channels after RGB, written to EXR as `name.C` for
@@ -139,7 +140,8 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
     }
 
     /// How the integrator wants emitters chosen for light sampling, if it
-    /// says (`light_sampler`); the scene's default otherwise.
+    /// says (`light_sampler`); the default otherwise. A render builds its
+    /// light sampler so ([`crate::render::RenderState`]).
     fn light_selection(&self) -> Option<crate::light::LightSelection> {
         None
     }
@@ -170,10 +172,10 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
     }
 
     /// Radiance arriving along `ray`.
-    fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb;
+    fn li(&self, scene: &RenderScene, ray: &Ray, sampler: &mut SampleStream) -> Rgb;
 
     /// Fills `out` (`channel_count()` values) for one camera ray.
-    fn sample(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream, out: &mut [f32]) {
+    fn sample(&self, scene: &RenderScene, ray: &Ray, sampler: &mut SampleStream, out: &mut [f32]) {
         let l = self.li(scene, ray, sampler);
         out[..3].copy_from_slice(&l.to_array());
     }
@@ -181,11 +183,11 @@ pub trait Integrator: Send + Sync + std::fmt::Debug {
     /// [`Integrator::sample`] for several camera rays, each with its own
     /// sample stream and its `channel_count()` values of `out` in turn
     /// (zero for a missing ray, one the lens stopped). An integrator that
-    /// traces its paths together ([`Scene::closest_packet`]) overrides
+    /// traces its paths together ([`crate::Scene::closest_packet`]) overrides
     /// it; every value is the one `sample` gives.
     fn sample_packet(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         rays: &[Option<Ray>],
         samplers: &mut [SampleStream],
         out: &mut [f32],
@@ -243,7 +245,7 @@ impl RayOrigin {
 
     /// Whether emitter `e` shows itself to this ray.
     #[inline]
-    fn sees(&self, scene: &Scene, e: u32) -> bool {
+    fn sees(&self, scene: &RenderScene, e: u32) -> bool {
         let o = &scene.emitter_options[e as usize];
         if self.camera {
             o.visible
@@ -255,7 +257,7 @@ impl RayOrigin {
 
 /// Radiance from emitters at infinity along an escaped ray `d`, MIS-weighted
 /// against the BSDF sample that produced it.
-pub(crate) fn environment_radiance(scene: &Scene, origin: &RayOrigin, d: Vec3) -> Rgb {
+pub(crate) fn environment_radiance(scene: &RenderScene, origin: &RayOrigin, d: Vec3) -> Rgb {
     environment_emission(scene, origin, d, |le, light_pdf| {
         power_weighted(origin, le, light_pdf)
     })
@@ -266,7 +268,7 @@ pub(crate) fn environment_radiance(scene: &Scene, origin: &RayOrigin, d: Vec3) -
 /// the caller at once, which the CPU cannot forward.
 #[inline(never)]
 pub(crate) fn add_environment_radiance(
-    scene: &Scene,
+    scene: &RenderScene,
     origin: &RayOrigin,
     d: Vec3,
     beta: Rgb,
@@ -291,7 +293,7 @@ fn power_weighted(origin: &RayOrigin, le: Rgb, light_pdf: Option<f32>) -> Rgb {
 /// along an escaped ray `d`: the density with which light sampling from
 /// `origin` gives that direction (`None` when the origin asks for no MIS).
 pub(crate) fn environment_emission(
-    scene: &Scene,
+    scene: &RenderScene,
     origin: &RayOrigin,
     d: Vec3,
     mut weigh: impl FnMut(Rgb, Option<f32>) -> Rgb,
@@ -303,9 +305,9 @@ pub(crate) fn environment_emission(
         if !origin.sees(scene, e) {
             continue;
         }
-        let emitter = &scene.emitters[e as usize];
+        let emitter = scene.emitter(e);
         let (le, light_pdf) = if origin.bsdf_pdf.is_some() {
-            if scene.light_sampler.never_chooses(e) {
+            if scene.light_sampler().never_chooses(e) {
                 // Left to BSDF sampling (MIS compensation): light sampling
                 // never finds it, and its density and choice need no work.
                 // A constant sky's radiance is read in its own branch: out
@@ -333,7 +335,11 @@ pub(crate) fn environment_emission(
 
 /// Radiance emitted by the surface at `si` towards the ray's origin,
 /// MIS-weighted as in [`environment_radiance`].
-pub(crate) fn surface_emission(scene: &Scene, si: &SurfaceInteraction, origin: &RayOrigin) -> Rgb {
+pub(crate) fn surface_emission(
+    scene: &RenderScene,
+    si: &SurfaceInteraction,
+    origin: &RayOrigin,
+) -> Rgb {
     surface_emission_with(scene, si, origin, |le, light_pdf| {
         power_weighted(origin, le, light_pdf)
     })
@@ -342,7 +348,7 @@ pub(crate) fn surface_emission(scene: &Scene, si: &SurfaceInteraction, origin: &
 /// `weigh(radiance, light density)` for the surface at `si` (zero when it
 /// does not emit towards the origin), as in [`environment_emission`].
 pub(crate) fn surface_emission_with(
-    scene: &Scene,
+    scene: &RenderScene,
     si: &SurfaceInteraction,
     origin: &RayOrigin,
     weigh: impl FnOnce(Rgb, Option<f32>) -> Rgb,
@@ -354,7 +360,7 @@ pub(crate) fn surface_emission_with(
     if !origin.sees(scene, light.emitter) {
         return Rgb::ZERO;
     }
-    let emitter = &scene.emitters[light.emitter as usize];
+    let emitter = scene.emitter(light.emitter);
     let le = emitter.surface_radiance(&scene.materials, si);
     if le == Rgb::ZERO {
         return Rgb::ZERO;
@@ -412,7 +418,7 @@ pub(crate) struct PickedLightSample {
 /// the transmittance of the shadow ray through at most `max_crossings`
 /// pass-through surfaces.
 pub(crate) fn sample_light(
-    scene: &Scene,
+    scene: &RenderScene,
     si: &SurfaceInteraction,
     bsdf: &crate::bsdf::Bsdf,
     wo_local: Vec3,
@@ -433,7 +439,7 @@ pub(crate) fn sample_light(
 /// [`light_sample_unshadowed_by`] takes them).
 #[inline(always)]
 pub(crate) fn sample_light_unshadowed_by(
-    scene: &Scene,
+    scene: &RenderScene,
     si: &SurfaceInteraction,
     sampler: &mut SampleStream,
     light_count_ratio: f32,
@@ -477,7 +483,7 @@ impl UnshadowedSample {
     /// The contribution, its shadow ray traced through at most
     /// `max_crossings` pass-through surfaces.
     #[inline]
-    pub fn shadowed(&self, scene: &Scene, max_crossings: u32) -> Rgb {
+    pub fn shadowed(&self, scene: &RenderScene, max_crossings: u32) -> Rgb {
         self.through(scene.transmittance(&self.shadow, max_crossings))
     }
 }
@@ -489,7 +495,7 @@ impl UnshadowedSample {
 /// towards a local direction are `eval`'s.
 #[inline(always)]
 pub(crate) fn light_sample_unshadowed_by(
-    scene: &Scene,
+    scene: &RenderScene,
     si: &SurfaceInteraction,
     picked: &PickedLightSample,
     light_count_ratio: f32,
@@ -533,14 +539,14 @@ pub(crate) fn shadow_ray_towards(p: Vec3, n: Vec3, wi: Vec3, dist: f32) -> crate
 /// Samples the emitter (or the emitting triangle) `light` picked by the
 /// light sampler, as seen from `p`.
 pub(crate) fn sample_chosen_light(
-    scene: &Scene,
+    scene: &RenderScene,
     light: crate::light::LightChoice,
     p: Vec3,
     u: glam::Vec2,
 ) -> Option<crate::light::EmitterSample> {
     use crate::light::{Emitter, EmitterModel, LightChoice};
     let ctx = scene.emitter_context();
-    let emitter = &scene.emitters[light.emitter as usize];
+    let emitter = scene.emitter(light.emitter);
     match emitter {
         Emitter::Area(a) if light.prim != LightChoice::WHOLE => {
             a.sample_triangle_direction(&ctx, light.prim, p, u)

@@ -16,8 +16,9 @@
 use super::{Integrator, Layer};
 use crate::math::Ray;
 use crate::params::{Family, ParamError, Params};
+use crate::render::RenderScene;
 use crate::sampler::SampleStream;
-use crate::{Rgb, Scene};
+use crate::Rgb;
 
 /// Mean and second moment of a nested integrator.
 #[derive(Debug)]
@@ -61,11 +62,11 @@ impl Integrator for MomentIntegrator {
         self.nested.mis_compensation()
     }
 
-    fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
+    fn li(&self, scene: &RenderScene, ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         self.nested.li(scene, ray, sampler)
     }
 
-    fn sample(&self, scene: &Scene, ray: &Ray, sampler: &mut SampleStream, out: &mut [f32]) {
+    fn sample(&self, scene: &RenderScene, ray: &Ray, sampler: &mut SampleStream, out: &mut [f32]) {
         let n = self.nested.channel_count();
         self.nested.sample(scene, ray, sampler, &mut out[..n]);
         for c in 0..3 {

@@ -52,9 +52,10 @@ use crate::light::{LightChoice, LightSelection};
 use crate::math::spawn_ray;
 use crate::math::Ray;
 use crate::params::{ParamError, Params};
+use crate::render::RenderScene;
 use crate::sampler::SampleStream;
 use crate::scene::HitRecord;
-use crate::{Rgb, Scene};
+use crate::Rgb;
 use glam::Vec3;
 
 /// Path tracer settings.
@@ -106,7 +107,7 @@ impl Integrator for PathIntegrator {
         self.mis_compensation
     }
 
-    fn li(&self, scene: &Scene, camera_ray: &Ray, sampler: &mut SampleStream) -> Rgb {
+    fn li(&self, scene: &RenderScene, camera_ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         let mut path = Path::new(camera_ray);
         loop {
             let hit = scene.closest(&path.ray);
@@ -118,13 +119,13 @@ impl Integrator for PathIntegrator {
     }
 
     /// Eight paths at a time, their rays traced together
-    /// ([`Scene::closest_packet`]): a path that ends hands its lane to the
+    /// ([`crate::Scene::closest_packet`]): a path that ends hands its lane to the
     /// next camera ray, so the packet stays full until the rays run out.
     /// Each path is the same, bit for bit, as [`Integrator::li`] traces
     /// it alone.
     fn sample_packet(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         rays: &[Option<Ray>],
         samplers: &mut [SampleStream],
         out: &mut [f32],
@@ -218,13 +219,13 @@ impl Integrator for PathIntegrator {
 /// memory on the queued path too, stored in pieces and read back whole
 /// for the queue, which the CPU cannot forward.
 #[inline(never)]
-fn add_shadowed(scene: &Scene, path: &mut Path, l: UnshadowedSample, crossings: u32) {
+fn add_shadowed(scene: &RenderScene, path: &mut Path, l: UnshadowedSample, crossings: u32) {
     path.l += path.beta * l.shadowed(scene, crossings);
 }
 
 /// The light samples of a packet's bounce whose shadow rays are still to
 /// be traced, at most one per lane: traced together
-/// ([`Scene::occluded_packet`]) before any path goes on, each adds its
+/// ([`crate::Scene::occluded_packet`]) before any path goes on, each adds its
 /// contribution to its path unless something blocks it. Only plain
 /// any-hit queries wait here (see [`Shadows::takes`]).
 struct Shadows {
@@ -248,7 +249,7 @@ impl Shadows {
     /// Whether a shadow ray that may cross `crossings` pass-through
     /// surfaces is a plain any-hit query, which may wait here.
     #[inline]
-    fn takes(scene: &Scene, crossings: u32) -> bool {
+    fn takes(scene: &RenderScene, crossings: u32) -> bool {
         !scene.has_pass_through() || crossings == 0
     }
 
@@ -264,7 +265,7 @@ impl Shadows {
 
     /// Traces the waiting shadow rays and adds what gets through to the
     /// paths. The lanes of `rays` past `len` keep stale rays, unread.
-    fn trace(&mut self, scene: &Scene, paths: &mut [Path; PACKET_RAYS]) {
+    fn trace(&mut self, scene: &RenderScene, paths: &mut [Path; PACKET_RAYS]) {
         let n = self.len;
         self.len = 0;
         let blocked = match n {
@@ -357,7 +358,7 @@ impl PathIntegrator {
     /// the next ray and roulette. False when the path ends.
     fn bounce(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         path: &mut Path,
         hit: Option<HitRecord>,
         sampler: &mut SampleStream,
@@ -372,7 +373,7 @@ impl PathIntegrator {
 
     /// The emission from infinity that the path's ray finds when it
     /// escapes the scene, which ends the path.
-    fn escape(&self, scene: &Scene, path: &mut Path) {
+    fn escape(&self, scene: &RenderScene, path: &mut Path) {
         if !(path.depth == 0 && self.hide_emitters) {
             let d = path.ray.d.normalize();
             add_environment_radiance(scene, &path.origin, d, path.beta, &mut path.l);
@@ -382,7 +383,7 @@ impl PathIntegrator {
     /// The emission of the surface `si` that the path's ray meets; false
     /// when the path may not go on from it (its longest length).
     #[inline]
-    fn land(&self, scene: &Scene, path: &mut Path, si: &SurfaceInteraction) -> bool {
+    fn land(&self, scene: &RenderScene, path: &mut Path, si: &SurfaceInteraction) -> bool {
         let depth = path.depth;
         if !(depth == 0 && self.hide_emitters) {
             path.l += path.beta * surface_emission(scene, si, &path.origin);
@@ -408,7 +409,7 @@ impl PathIntegrator {
     /// ends.
     fn scatter(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         path: &mut Path,
         si: &SurfaceInteraction,
         sampler: &mut SampleStream,
@@ -439,7 +440,7 @@ impl PathIntegrator {
     #[inline(always)]
     fn add_light_sample(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         path: &mut Path,
         l: &UnshadowedSample,
         shadows: Option<(&mut Shadows, usize)>,
@@ -496,7 +497,7 @@ impl PathIntegrator {
     #[inline]
     fn queue_diffuse(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         path: &mut Path,
         si: &SurfaceInteraction,
         sides: DiffuseSides,
@@ -552,7 +553,7 @@ impl PathIntegrator {
     #[inline]
     fn finish_diffuse(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         path: &mut Path,
         (p, n): (Vec3, Vec3),
         reflectance: Rgb,
@@ -589,8 +590,9 @@ mod tests {
     use crate::bsdf::{Bsdf, Dielectric, Diffuse, TwoSided};
     use crate::camera::{Camera, FovAxis, Perspective};
     use crate::math::Transform;
+    use crate::render::RenderState;
     use crate::shape::{Rectangle, Shape, Sphere};
-    use crate::SceneBuilder;
+    use crate::{Scene, SceneBuilder};
     use glam::Affine3A;
 
     /// A lit box of rectangles (one checkered) with a diffuse and a glass
@@ -684,6 +686,8 @@ mod tests {
     fn packets_of_paths_equal_single_paths() {
         let scene = room();
         let integrator = PathIntegrator::default();
+        let state = RenderState::new(&scene, &integrator);
+        let scene = RenderScene::new(&scene, &state);
         let mut rays = Vec::new();
         let mut streams = Vec::new();
         for index in 0..300u32 {

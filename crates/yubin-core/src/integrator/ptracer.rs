@@ -53,6 +53,7 @@ use crate::light::{EmitterModel, SceneSphere};
 use crate::math::{spawn_ray, Ray};
 use crate::params::{ParamError, Params};
 use crate::render::{RenderOutput, RenderSettings};
+use crate::render::{RenderScene, RenderState};
 use crate::sampler::SampleStream;
 use crate::sampling::AliasTable;
 use crate::{Rgb, Scene};
@@ -99,13 +100,16 @@ impl ParticleTracer {
         Ok(t)
     }
 
-    /// Renders `scene` by tracing spp × pixels light paths.
+    /// Renders `scene` by tracing spp × pixels light paths (building the
+    /// render's [`RenderState`] first).
     pub fn render(
         &self,
         scene: &Scene,
         settings: &RenderSettings,
         progress: &(dyn Fn(u64) + Sync),
     ) -> RenderOutput {
+        let state = RenderState::new(scene, self);
+        let scene = &RenderScene::new(scene, &state);
         let film = &scene.film;
         let crop = film.crop_size;
         let pixels = u64::from(crop[0]) * u64::from(crop[1]);
@@ -151,7 +155,7 @@ impl ParticleTracer {
     /// dropped.
     fn trace_chunk(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         lights: &PathStart,
         seed: u32,
         paths: std::ops::Range<u64>,
@@ -185,7 +189,12 @@ impl ParticleTracer {
     }
 
     /// What the camera sees of the lights directly, for one sample.
-    fn splat_visible_emitter(&self, scene: &Scene, sampler: &mut SampleStream, out: &mut Splats) {
+    fn splat_visible_emitter(
+        &self,
+        scene: &RenderScene,
+        sampler: &mut SampleStream,
+        out: &mut Splats,
+    ) {
         let u_pick = sampler.next_1d();
         let u = sampler.next_2d();
         let c = scene.camera.sample_lens(lens_sample(scene, sampler));
@@ -193,7 +202,7 @@ impl ParticleTracer {
             return;
         };
         if !scene.emitter_options[light.emitter as usize].visible
-            || scene.emitters[light.emitter as usize].is_delta()
+            || scene.emitter(light.emitter).is_delta()
         {
             return;
         }
@@ -222,7 +231,7 @@ impl ParticleTracer {
     /// camera.
     fn trace_light_path(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         lights: &PathStart,
         sampler: &mut SampleStream,
         out: &mut Splats,
@@ -236,7 +245,7 @@ impl ParticleTracer {
         let u_dir = sampler.next_2d();
         let (emitter, _) = lights.table.sample(u_pick);
         let pick_pdf = lights.table.pmf(emitter);
-        let Some(es) = scene.emitters[emitter].sample_emission(
+        let Some(es) = scene.emitter(emitter as u32).sample_emission(
             &scene.emitter_context(),
             lights.sphere,
             u_pos,
@@ -294,7 +303,7 @@ impl ParticleTracer {
     #[allow(clippy::too_many_arguments)]
     fn connect_to_camera(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         si: &SurfaceInteraction,
         bsdf: &crate::bsdf::Bsdf,
         wo: Vec3,
@@ -336,7 +345,7 @@ impl ParticleTracer {
 
 /// The lens sample of a connection to the camera: drawn only for cameras
 /// with a lens, so that pinhole images keep their sample streams.
-fn lens_sample(scene: &Scene, sampler: &mut SampleStream) -> Vec2 {
+fn lens_sample(scene: &RenderScene, sampler: &mut SampleStream) -> Vec2 {
     if scene.camera.needs_lens_sample() {
         sampler.next_2d()
     } else {
@@ -369,7 +378,7 @@ struct PathStart {
 
 impl PathStart {
     /// `None` when no emitter has power.
-    fn new(scene: &Scene) -> Option<Self> {
+    fn new(scene: &RenderScene) -> Option<Self> {
         let bounds = scene.bounds();
         let sphere = if bounds.is_empty() {
             SceneSphere {
@@ -383,9 +392,7 @@ impl PathStart {
             }
         };
         let ctx = scene.emitter_context();
-        let powers: Vec<f32> = scene
-            .emitters
-            .iter()
+        let powers: Vec<f32> = (scene.state().emitters().iter())
             .map(|e| {
                 let p = e.power(&ctx, sphere.radius);
                 if p.is_finite() {
@@ -445,7 +452,7 @@ impl Splats {
 }
 
 impl Integrator for ParticleTracer {
-    fn li(&self, _: &Scene, _: &Ray, _: &mut SampleStream) -> Rgb {
+    fn li(&self, _: &RenderScene, _: &Ray, _: &mut SampleStream) -> Rgb {
         // Never called: `particle_tracer` routes renders to `render`, and
         // nesting integrators refuse a particle tracer.
         Rgb::ZERO

@@ -51,10 +51,11 @@ use crate::math::{spawn_ray, Ray, SHADOW_EPSILON};
 use crate::medium::{mean_ratio, Flight, Medium, PathWeight};
 use crate::params::{ParamError, Params};
 use crate::phase::PhaseFunction;
+use crate::render::RenderScene;
 use crate::sampler::SampleStream;
 use crate::sampling::power_heuristic;
 use crate::scene::{HitRecord, ShadowHit};
-use crate::{Rgb, Scene};
+use crate::Rgb;
 use glam::Vec3;
 
 /// The most pass-through surfaces a shadow ray crosses.
@@ -182,7 +183,7 @@ impl VolPathIntegrator {
     /// Picks and samples a light from `p` (surface normal `n`, zero in a
     /// medium).
     fn pick_light(
-        scene: &Scene,
+        scene: &RenderScene,
         p: Vec3,
         n: Vec3,
         sampler: &mut SampleStream,
@@ -240,7 +241,7 @@ impl VolPathIntegrator {
     #[allow(clippy::too_many_arguments)]
     fn light_from_medium(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         path: &PathWeight,
         p: Vec3,
         wo: Vec3,
@@ -278,7 +279,7 @@ impl VolPathIntegrator {
     #[allow(clippy::too_many_arguments)]
     fn light_from_surface(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         path: &PathWeight,
         si: &SurfaceInteraction,
         bsdf: &Bsdf,
@@ -314,7 +315,7 @@ impl VolPathIntegrator {
     /// media) and media; nothing past the first opaque surface.
     fn shadow(
         &self,
-        scene: &Scene,
+        scene: &RenderScene,
         mut r: Ray,
         mut medium: Option<u32>,
         sampler: &mut SampleStream,
@@ -378,7 +379,7 @@ impl VolPathIntegrator {
 
     /// Transmittance of `medium` along `r` up to `end`.
     fn medium_transmittance(
-        scene: &Scene,
+        scene: &RenderScene,
         r: &Ray,
         end: f32,
         medium: Option<u32>,
@@ -396,7 +397,7 @@ impl VolPathIntegrator {
     /// reaches, if any, and the free flight through the medium (a
     /// scattering event before the surface, or the weight of passing).
     fn trace(
-        scene: &Scene,
+        scene: &RenderScene,
         ray: &Ray,
         medium: Option<u32>,
         path: &mut PathWeight,
@@ -454,7 +455,7 @@ impl Integrator for VolPathIntegrator {
         self.mis_compensation
     }
 
-    fn li(&self, scene: &Scene, camera_ray: &Ray, sampler: &mut SampleStream) -> Rgb {
+    fn li(&self, scene: &RenderScene, camera_ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         let ctx = volpath_context();
         let max_depth = self.max_depth();
         let (mut l, mut eta2) = (Rgb::ZERO, 1.0f32);

@@ -59,8 +59,8 @@ pub(crate) struct DiffuseSides {
 }
 
 impl DiffuseSides {
-    /// The sides of `bsdf` when it is such a BSDF (the scene keeps them
-    /// per BSDF: [`crate::Scene::diffuse_sides_of`]).
+    /// The sides of `bsdf` when it is such a BSDF (a render keeps them
+    /// per BSDF: [`WideTables`]).
     pub fn of(materials: &Materials, bsdf: &Bsdf) -> Option<Self> {
         let reflectance = |b: &Bsdf| match b {
             Bsdf::Diffuse(d) => Some(d.reflectance),
@@ -144,7 +144,7 @@ pub(crate) struct RectangleLight {
 
 impl RectangleLight {
     /// The emitter `emitter` (options `options`) when it is such a light
-    /// (the scene keeps them per emitter: [`crate::Scene::rectangle_light`]).
+    /// (a render keeps them per emitter: [`WideTables`]).
     pub fn of(emitter: &Emitter, options: &EmitterOptions, shapes: &[Shape]) -> Option<Self> {
         let Emitter::Area(a) = emitter else {
             return None;
@@ -174,6 +174,48 @@ impl RectangleLight {
     #[inline]
     pub fn near_frame(&self, p: Vec3) -> Option<&RectangleFrame> {
         self.near.frame_at(p)
+    }
+}
+
+/// What the wide shading reads of a scene, per BSDF and per emitter:
+/// built once per render, held by its state
+/// ([`crate::render::RenderState`]) and read through
+/// [`crate::render::RenderScene::diffuse_sides_of`] and
+/// [`crate::render::RenderScene::rectangle_light`].
+#[derive(Clone, Debug, Default)]
+pub(crate) struct WideTables {
+    /// Per BSDF, its reflectances when it is a `diffuse` (alone or in
+    /// `twosided`), which the path tracer shades eight at a time.
+    diffuse_sides: Vec<Option<DiffuseSides>>,
+    /// Per emitter, the rectangle light it is, if it is one of constant
+    /// radiance, which the path tracer samples eight at a time.
+    rectangle_lights: Vec<Option<RectangleLight>>,
+}
+
+impl WideTables {
+    /// The tables of `scene`.
+    pub fn new(scene: &crate::Scene) -> Self {
+        let materials = &scene.materials;
+        Self {
+            diffuse_sides: (materials.bsdfs.iter())
+                .map(|b| DiffuseSides::of(materials, b))
+                .collect(),
+            rectangle_lights: (scene.emitters.iter().zip(&scene.emitter_options))
+                .map(|(e, o)| RectangleLight::of(e, o, &scene.shapes))
+                .collect(),
+        }
+    }
+
+    /// The sides of BSDF `bsdf` ([`DiffuseSides::of`]).
+    #[inline]
+    pub fn diffuse_sides(&self, bsdf: u32) -> Option<DiffuseSides> {
+        self.diffuse_sides[bsdf as usize]
+    }
+
+    /// Emitter `emitter` as a rectangle light ([`RectangleLight::of`]).
+    #[inline]
+    pub fn rectangle_light(&self, emitter: u32) -> Option<&RectangleLight> {
+        self.rectangle_lights[emitter as usize].as_ref()
     }
 }
 
@@ -769,6 +811,7 @@ mod tests {
     use crate::integrator::sample_chosen_light;
     use crate::light::LightChoice;
     use crate::math::Transform;
+    use crate::render::{LightOptions, RenderScene, RenderState};
     use crate::sampler::Pcg32;
     use crate::shape::Rectangle;
     use crate::SceneBuilder;
@@ -819,6 +862,8 @@ mod tests {
         let (mut near, mut far, mut kept) = (0, 0, 0);
         for m in lights {
             let scene = lit_by(m);
+            let state = RenderState::with_lights(&scene, LightOptions::default());
+            let scene = RenderScene::new(&scene, &state);
             let light = scene.rectangle_light(0).copied().unwrap();
             let choice = LightChoice {
                 emitter: 0,

@@ -715,6 +715,7 @@ mod tests {
     use super::*;
     use crate::light::{ConstantLight, LightSampler, LightSelection, PointLight, SpotLight};
     use crate::math::Transform;
+    use crate::render::{LightOptions, RenderScene, RenderState};
     use crate::sampler::Pcg32;
     use crate::sampling::square_to_uniform_sphere;
     use crate::shape::{cube::cube_mesh, MeshShape, Rectangle, Sphere};
@@ -723,8 +724,9 @@ mod tests {
     use crate::{Rgb, Scene, SceneBuilder};
     use glam::Affine3A;
 
-    /// Lights of every kind the tree holds, and one at infinity.
-    fn many_light_scene() -> Scene {
+    /// Lights of every kind the tree holds, and one at infinity, with a
+    /// render's state that chooses them by the light BVH.
+    fn many_light_scene() -> (Scene, RenderState) {
         let mut b = SceneBuilder::new();
         let mesh = b.add_mesh(cube_mesh());
         let glow = Some(Tex::Const(Rgb::splat(2.0)));
@@ -759,17 +761,22 @@ mod tests {
         b.add_emitter(Emitter::Constant(ConstantLight {
             radiance: Rgb::splat(0.1),
         }));
-        b.light_selection(LightSelection::Bvh);
-        b.build().unwrap()
+        let scene = b.build().unwrap();
+        let lights = LightOptions {
+            selection: LightSelection::Bvh,
+            mis_compensation: false,
+        };
+        let state = RenderState::with_lights(&scene, lights);
+        (scene, state)
     }
 
     /// Every light the sampler can return, as it names them.
-    fn all_choices(scene: &Scene) -> Vec<LightChoice> {
+    fn all_choices(scene: &RenderScene) -> Vec<LightChoice> {
         let ctx = scene.emitter_context();
         let mut out = Vec::new();
         for (i, e) in scene.emitters.iter().enumerate() {
             let emitter = i as u32;
-            if scene.light_sampler.splits(emitter) {
+            if scene.light_sampler().splits(emitter) {
                 for prim in 0..prim_count(e, &ctx) {
                     out.push(LightChoice { emitter, prim });
                 }
@@ -785,9 +792,9 @@ mod tests {
 
     #[test]
     fn light_bvh_choices_sum_to_one_and_match_their_pmf() {
-        let scene = many_light_scene();
-        let sampler: &LightSampler = &scene.light_sampler;
-        let choices = all_choices(&scene);
+        let (scene, state) = many_light_scene();
+        let sampler: &LightSampler = state.light_sampler();
+        let choices = all_choices(&RenderScene::new(&scene, &state));
         assert_eq!(choices.len(), 12 + 3 + 1 + 3, "cube triangles one by one");
         let mut rng = Pcg32::new(7, 1);
         for case in 0..6 {
@@ -840,8 +847,8 @@ mod tests {
 
     #[test]
     fn light_bvh_prefers_the_near_light() {
-        let scene = many_light_scene();
-        let choices = all_choices(&scene);
+        let (scene, state) = many_light_scene();
+        let choices = all_choices(&RenderScene::new(&scene, &state));
         // Just in front of the first rectangle: it outweighs the others.
         let rect_emitter = 1;
         let to_world = match scene.shapes[1] {
@@ -850,7 +857,7 @@ mod tests {
         };
         let front = to_world.normal(Vec3::Z).normalize();
         let p = to_world.point(Vec3::ZERO) + 0.05 * front;
-        let near = scene.light_sampler.pmf(
+        let near = state.light_sampler().pmf(
             LightChoice {
                 emitter: rect_emitter,
                 prim: LightChoice::WHOLE,
@@ -866,7 +873,7 @@ mod tests {
         };
         let third_front = third.normal(Vec3::Z).normalize();
         let far_p = third.point(Vec3::ZERO) + 0.05 * third_front;
-        let far = scene.light_sampler.pmf(
+        let far = state.light_sampler().pmf(
             LightChoice {
                 emitter: rect_emitter,
                 prim: LightChoice::WHOLE,
@@ -879,7 +886,7 @@ mod tests {
         // Well behind a one-sided light (outside its bounding sphere), the
         // tree never takes it: only the uniform share α / n chooses it.
         let behind = to_world.point(Vec3::ZERO) - 3.0 * front;
-        let pmf_behind = scene.light_sampler.pmf(
+        let pmf_behind = state.light_sampler().pmf(
             LightChoice {
                 emitter: rect_emitter,
                 prim: LightChoice::WHOLE,
@@ -887,7 +894,7 @@ mod tests {
             behind,
             front,
         );
-        let tree_lights = scene.light_sampler.bvh_light_count() as f32;
+        let tree_lights = state.light_sampler().bvh_light_count() as f32;
         let p_tree = 1.0 / (1 + scene.environment_emitters.len()) as f32;
         let floor = p_tree * DEFENSIVE_FRACTION / tree_lights;
         assert!(
@@ -923,14 +930,18 @@ mod tests {
                     ..EmitterOptions::default()
                 };
                 b.set_emitter_options(sky, options);
-                b.light_selection(selection).mis_compensation(true);
                 let scene = b.build().unwrap();
+                let lights = LightOptions {
+                    selection,
+                    mis_compensation: true,
+                };
+                let state = RenderState::with_lights(&scene, lights);
                 let sky = LightChoice {
                     emitter: sky,
                     prim: LightChoice::WHOLE,
                 };
                 let point = LightChoice { emitter: 0, ..sky };
-                let sampler = &scene.light_sampler;
+                let sampler = state.light_sampler();
                 let (sky_pmf, point_pmf) = (sampler.pmf(sky, p, n), sampler.pmf(point, p, n));
                 let mut rng = Pcg32::new(5, 9);
                 let picked_sky = (0..1000)
@@ -966,10 +977,13 @@ mod tests {
             b.add_emitter(Emitter::Constant(ConstantLight {
                 radiance: Rgb::splat(0.1),
             }));
-            b.light_selection(LightSelection::Uniform)
-                .mis_compensation(true);
             let scene = b.build().unwrap();
-            let got = scene.light_sampler.sample(0.5, p, n).is_some();
+            let lights = LightOptions {
+                selection: LightSelection::Uniform,
+                mis_compensation: true,
+            };
+            let state = RenderState::with_lights(&scene, lights);
+            let got = state.light_sampler().sample(0.5, p, n).is_some();
             assert_eq!(got, sampled, "point light of weight {point_weight}");
         }
     }

@@ -49,8 +49,10 @@
 //! an [`Emitter::EnvMap`](super::Emitter::EnvMap) that names its image in
 //! [`Materials::images`](crate::material::Materials::images); pass it to
 //! `SceneBuilder::add_emitter` like any other emitter. `SceneBuilder::build`
-//! builds its sampling distribution into `Scene::light_distributions` and
-//! sets [`EnvMapLight::distribution`].
+//! checks its image; a render's state (`render::RenderState`) builds its
+//! sampling distribution, which depends on the integrator's MIS
+//! compensation, and sets [`EnvMapLight::distribution`] in the render's
+//! copy of the emitter.
 
 use super::{latlong, EmitterContext, EmitterModel, EmitterSample};
 use crate::params::{ParamError, Params};
@@ -570,10 +572,12 @@ pub(crate) mod tests {
 
     /// Through the plugin table and the scene builder, as a front end
     /// does it: the image goes into the scene's table, the emitter from
-    /// `PLUGINS` into `add_emitter`, and `build` makes its distribution.
+    /// `PLUGINS` into `add_emitter`, and a render's state makes its
+    /// distribution.
     #[test]
     fn envmap_through_the_plugin_table_and_scene_builder() {
         use crate::light::{EmitterModel, PLUGINS};
+        use crate::render::{LightOptions, RenderScene, RenderState};
         use crate::scene::SceneBuilder;
         let rotation = Mat3::from_cols_array_2d(&ROTATION).transpose();
         use crate::testing::params::{MapParams, Value};
@@ -591,9 +595,11 @@ pub(crate) mod tests {
             .add_emitter(from_params(&mut params().with("filename", Value::Image(0))).unwrap());
         let scene = builder.build().unwrap();
         assert_eq!(scene.environment_emitters, vec![e]);
-        assert_eq!(scene.light_distributions.len(), 1);
-        let ctx = scene.emitter_context();
-        let emitter = &scene.emitters[e as usize];
+        let state = RenderState::with_lights(&scene, LightOptions::default());
+        assert_eq!(state.light_distributions().len(), 1);
+        let render = RenderScene::new(&scene, &state);
+        let ctx = render.emitter_context();
+        let emitter = render.emitter(e);
         for (d, want) in DIRECTIONS.iter().zip(MITSUBA_ROTATED) {
             let got = emitter.environment_radiance(&ctx, Vec3::from_array(*d));
             let want = Vec3::from_array(want);

@@ -10,10 +10,12 @@
 //!
 //! Emitters at infinity ([`Emitter::is_environment`]) also give the
 //! radiance of rays that escape the scene ([`Emitter::environment_radiance`]).
-//! Scene front ends build emitters through [`PLUGINS`]; an emitter that
-//! needs scene-owned data (an `envmap`'s or `preetham`'s sampling
-//! distribution) gets it
-//! when the scene is built ([`build_distributions`]).
+//! Scene front ends build emitters through [`PLUGINS`]; the scene's build
+//! fits them to its data ([`prepare_emitters`]). An emitter that samples
+//! by a table (an `envmap`'s or `preetham`'s sampling distribution, which
+//! depends on the integrator's MIS compensation) gets it when a render
+//! starts: the render's copy of the emitter refers to it by index
+//! ([`build_distributions`]).
 
 mod area;
 pub mod bvh;
@@ -61,7 +63,8 @@ pub struct EmitterContext<'a> {
     pub images: &'a [TexImage],
     /// The scene's materials, for textured emission.
     pub materials: &'a crate::material::Materials,
-    /// Sampling distributions of emitters (`Scene::light_distributions`).
+    /// Sampling distributions of emitters, which the render's state holds
+    /// ([`build_distributions`]).
     pub distributions: &'a [Distribution2D],
 }
 
@@ -204,29 +207,45 @@ pub(crate) fn power_mean(t: crate::texture::Tex, m: &crate::material::Materials)
     }
 }
 
-/// Builds the sampling distributions that emitters keep in the scene
-/// (`Scene::light_distributions`) and points each emitter at its own, and
-/// fits projectors to their image's aspect ratio;
-/// `SceneBuilder::build` calls it. `compensated[i]`: emitter `i` may leave
-/// to BSDF sampling what it finds well (an `envmap` that does not turn
-/// that off, and `preetham`'s sky, then sample their excess over their
-/// mean). Fails with the index of an image that is not in `images`.
-pub fn build_distributions(
+/// Fits projectors to their image's aspect ratio and checks that every
+/// `envmap`'s image is in the image table; `SceneBuilder::build` calls it.
+/// Fails with the index of an image that is not in `materials.images`.
+pub fn prepare_emitters(
     emitters: &mut [Emitter],
     materials: &crate::material::Materials,
-    compensated: &[bool],
-) -> Result<Vec<Distribution2D>, u32> {
-    let images = &materials.images;
-    let mut distributions = Vec::new();
-    for (i, e) in emitters.iter_mut().enumerate() {
-        let allowed = compensated.get(i).copied().unwrap_or(false);
+) -> Result<(), u32> {
+    for e in emitters.iter_mut() {
         if let Emitter::Projector(l) = e {
             l.fit_image_plane(materials);
         }
         if let Emitter::EnvMap(env) = e {
-            let image = images.get(env.image as usize).ok_or(env.image)?;
+            materials.images.get(env.image as usize).ok_or(env.image)?;
+        }
+    }
+    Ok(())
+}
+
+/// Builds the sampling distributions that emitters read from a render's
+/// state (`render::RenderState`, made when a render starts) and points
+/// each of `emitters` (the render's copies of the scene's, which
+/// [`prepare_emitters`] checked) at its own. `compensated[i]`: emitter `i`
+/// may leave to BSDF sampling what it finds well (an `envmap` that does
+/// not turn that off, and `preetham`'s sky, then sample their excess over
+/// their mean).
+pub fn build_distributions(
+    emitters: &mut [Emitter],
+    materials: &crate::material::Materials,
+    compensated: &[bool],
+) -> Vec<Distribution2D> {
+    let images = &materials.images;
+    let mut distributions = Vec::new();
+    for (i, e) in emitters.iter_mut().enumerate() {
+        let allowed = compensated.get(i).copied().unwrap_or(false);
+        if let Emitter::EnvMap(env) = e {
+            // Checked when the scene was built (`prepare_emitters`).
+            let image = &images[env.image as usize];
             // The map's own `false` turns it off; it is never on where the
-            // scene's integrator or the map's visibility does not allow it.
+            // render's integrator or the map's visibility does not allow it.
             env.mis_compensation = Some(allowed && env.mis_compensation != Some(false));
             env.distribution = distributions.len() as u32;
             distributions.push(env.sampling_distribution(image));
@@ -236,7 +255,7 @@ pub fn build_distributions(
             distributions.push(sky.sampling_distribution(allowed));
         }
     }
-    Ok(distributions)
+    distributions
 }
 
 macro_rules! dispatch {
@@ -542,8 +561,9 @@ pub(crate) mod tests {
         let distributions: Vec<Vec<Distribution2D>> = variants
             .iter_mut()
             .map(|v| {
-                build_distributions(std::slice::from_mut(&mut v.emitter), &v.materials, &[true])
-                    .unwrap()
+                let emitters = std::slice::from_mut(&mut v.emitter);
+                prepare_emitters(emitters, &v.materials).unwrap();
+                build_distributions(emitters, &v.materials, &[true])
             })
             .collect();
         // Šidák's correction keeps the chance that any of the chi-square

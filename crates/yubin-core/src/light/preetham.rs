@@ -82,8 +82,8 @@
 //!
 //! **Sampling.** The sky is tabulated on a 256 × 128 latitude–longitude
 //! grid (cell centres, luminance × sin θ; the lower half is zero), kept as a
-//! [`Distribution2D`] in the scene like `envmap`'s (so
-//! `SceneBuilder::build` must run before sampling, as for `envmap`); the
+//! [`Distribution2D`] in a render's state like `envmap`'s (so the sky
+//! is sampled only by a render's copy of the emitter, as `envmap` is); the
 //! sun is sampled uniformly in its cone. A sample picks the sun or the sky
 //! in proportion to their powers (∫ luminance dω), and both
 //! `sample_direction` and `pdf_direction` give the mixture's density.
@@ -913,11 +913,12 @@ pub(crate) mod tests {
         }
     }
 
-    /// Through the scene builder: `build` makes the distribution and the
-    /// emitter is an environment emitter.
+    /// Through the scene builder: the emitter is an environment emitter,
+    /// and a render's state makes its distribution.
     #[test]
     fn preetham_through_the_scene_builder() {
         use crate::light::Emitter;
+        use crate::render::{LightOptions, RenderScene, RenderState};
         use crate::scene::SceneBuilder;
         let build = plugin();
         let mut builder = SceneBuilder::new();
@@ -930,9 +931,11 @@ pub(crate) mod tests {
         );
         let scene = builder.build().unwrap();
         assert_eq!(scene.environment_emitters, vec![e]);
-        assert_eq!(scene.light_distributions.len(), 1);
-        let ctx = scene.emitter_context();
-        let emitter = &scene.emitters[e as usize];
+        let state = RenderState::with_lights(&scene, LightOptions::default());
+        assert_eq!(state.light_distributions().len(), 1);
+        let render = RenderScene::new(&scene, &state);
+        let ctx = render.emitter_context();
+        let emitter = render.emitter(e);
         let Emitter::Preetham(l) = emitter else {
             panic!()
         };

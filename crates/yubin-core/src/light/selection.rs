@@ -1,8 +1,8 @@
 //! Which emitter next-event estimation samples: the settings every emitter
-//! has besides its own parameters ([`EmitterOptions`]), and the scene's
-//! [`LightSampler`].
+//! has besides its own parameters ([`EmitterOptions`]), and the
+//! [`LightSampler`] that a render builds over the scene's emitters.
 //!
-//! Three strategies, chosen per scene ([`LightSelection`], the `path` and
+//! Three strategies, chosen per render ([`LightSelection`], the `path` and
 //! `direct` integrators' `light_sampler` parameter):
 //!
 //! - `uniform`: each emitter with probability proportional to its
@@ -17,8 +17,8 @@
 //! happened to hit is available for MIS ([`LightSampler::pmf`]).
 //!
 //! Under MIS compensation (the `mis_compensation` of `path`, `volpath`
-//! and `direct` with BSDF samples,
-//! [`crate::integrator::Integrator::mis_compensation`]) every strategy
+//! and `direct` with BSDF samples, which a render's state takes from its
+//! integrator) every strategy
 //! leaves `constant` emitters out (unless hidden from indirect rays):
 //! their probability is 0, BSDF sampling alone finds them, and the other
 //! emitters share their light samples.
@@ -143,7 +143,7 @@ impl LightChoice {
     pub const WHOLE: u32 = u32::MAX;
 }
 
-/// The scene's emitter chooser (see the module docs).
+/// A render's emitter chooser (see the module docs).
 #[derive(Clone, Debug, Default)]
 pub struct LightSampler {
     /// The strategy in use.

@@ -2,9 +2,8 @@
 //! every index it is given, and [`BuildError`]. [`SceneBuilder::build`]
 //! checks the BSDF references, places the emitters of shape groups in
 //! every instance, builds each group's BVH and lays its items and
-//! triangle packets out in leaf order, and makes the emitter
-//! distributions, the light sampler and the per-BSDF and per-shape
-//! tables the integrators read at every hit.
+//! triangle packets out in leaf order, fits the emitters to the scene's
+//! data, and makes the per-BSDF and per-shape tables read at every hit.
 
 use super::parameters::{Editable, Edits, GroupEntry};
 use super::traversal::{triangle_of_id, Group, Instance, Item, TriangleRun};
@@ -13,12 +12,10 @@ use crate::accel::{Bvh, PrimCost};
 use crate::bsdf::{Bsdf, BsdfModel, Diffuse};
 use crate::camera::{Camera, FovAxis, Perspective};
 use crate::film::Film;
-use crate::integrator::wide::{DiffuseSides, RectangleLight};
-use crate::light::{Emitter, EmitterContext, EmitterOptions, LightSampler, LightSelection};
+use crate::light::{Emitter, EmitterOptions};
 use crate::material::Materials;
 use crate::math::{Bounds3, Transform};
 use crate::sampler::Sampler;
-use crate::sampling::Distribution2D;
 use crate::shape::{Shape, ShapeModel, TriangleMesh, TrianglePackets};
 use crate::texture::{AttributeSlot, Tex, TexImage, Texture};
 use rayon::prelude::*;
@@ -78,8 +75,6 @@ pub struct SceneBuilder {
     materials: Materials,
     emitters: Vec<Emitter>,
     emitter_options: Vec<EmitterOptions>,
-    light_selection: LightSelection,
-    mis_compensation: bool,
     uv_unread_by_integrator: bool,
     groups: Vec<Vec<Item>>,
     instances: Vec<Instance>,
@@ -121,8 +116,6 @@ impl SceneBuilder {
             materials: Materials::default(),
             emitters: Vec::new(),
             emitter_options: Vec::new(),
-            light_selection: LightSelection::default(),
-            mis_compensation: false,
             uv_unread_by_integrator: false,
             groups: vec![Vec::new()],
             instances: Vec::new(),
@@ -448,22 +441,8 @@ impl SceneBuilder {
         }
     }
 
-    /// How next-event estimation will choose emitters.
-    pub fn light_selection(&mut self, selection: LightSelection) -> &mut Self {
-        self.light_selection = selection;
-        self
-    }
-
-    /// Whether light sampling may leave to BSDF sampling the light it finds
-    /// well ([`crate::integrator::Integrator::mis_compensation`]; off
-    /// unless the integrator says so).
-    pub fn mis_compensation(&mut self, on: bool) -> &mut Self {
-        self.mis_compensation = on;
-        self
-    }
-
     /// Whether the integrator leaves hits' uv unread
-    /// ([`crate::integrator::Integrator::reads_uv`]); with no textures in
+    /// (its `Integrator::reads_uv`); with no textures in
     /// the scene either, shapes may then skip computing it. Off (uv always
     /// computed) unless the integrator says so.
     pub fn uv_unread_by_integrator(&mut self, unread: bool) -> &mut Self {
@@ -503,24 +482,14 @@ impl SceneBuilder {
         let camera = self.camera_or_default();
         let placed_emitters = self.place_group_emitters()?;
         let groups = self.build_groups()?;
-        let compensated = self.compensated_emitters();
-        let light_distributions = self.build_light_distributions(&compensated)?;
+        self.prepare_emitters()?;
         let environment_emitters = self.environment_emitters();
         let bsdf_flags: Vec<_> = (self.materials.bsdfs.iter())
             .map(|b| b.flags(&self.materials))
             .collect();
-        let diffuse_sides = (self.materials.bsdfs.iter())
-            .map(|b| DiffuseSides::of(&self.materials, b))
-            .collect();
-        let rectangle_lights = (self.emitters.iter().zip(&self.emitter_options))
-            .map(|(e, o)| RectangleLight::of(e, o, &self.shapes))
-            .collect();
         let (has_pass_through, has_null_transmission) = self.pass_through(&bsdf_flags);
-        let light_sampler = self.build_light_sampler(&groups, &compensated, &light_distributions);
         let uv_unread = self.uv_unread_by_integrator && self.materials.textures.is_empty();
         let free_frame = self.free_frames(uv_unread);
-        self.edits.light_selection = self.light_selection;
-        self.edits.mis_compensation = self.mis_compensation;
         Ok(Scene {
             edits: self.edits,
             uv_unread,
@@ -533,9 +502,7 @@ impl SceneBuilder {
             materials: self.materials,
             emitters: self.emitters,
             emitter_options: self.emitter_options,
-            light_sampler,
             environment_emitters,
-            light_distributions,
             camera,
             film: self.film,
             sampler: self.sampler,
@@ -545,8 +512,6 @@ impl SceneBuilder {
             instances: self.instances,
             placed_emitters,
             bsdf_flags,
-            diffuse_sides,
-            rectangle_lights,
         })
     }
 
@@ -604,28 +569,15 @@ impl SceneBuilder {
         Ok(groups)
     }
 
-    /// Per emitter, whether light sampling may leave to BSDF sampling the
-    /// light it finds well ([`SceneBuilder::mis_compensation`]). Emitters
-    /// hidden from indirect rays cannot be found by BSDF sampling: light
-    /// sampling must cover them whole.
-    fn compensated_emitters(&self) -> Vec<bool> {
-        (self.emitter_options.iter())
-            .map(|o| self.mis_compensation && o.visible_indirect)
-            .collect()
-    }
-
-    /// The sampling distributions of the emitters that need one (one per
-    /// `envmap`), which the emitters then refer to by index.
-    fn build_light_distributions(
-        &mut self,
-        compensated: &[bool],
-    ) -> Result<Vec<Distribution2D>, BuildError> {
-        crate::light::build_distributions(&mut self.emitters, &self.materials, compensated).map_err(
-            |index| BuildError::BadIndex {
+    /// Fits the emitters to the scene's data and checks the images they
+    /// name ([`crate::light::prepare_emitters`]).
+    fn prepare_emitters(&mut self) -> Result<(), BuildError> {
+        crate::light::prepare_emitters(&mut self.emitters, &self.materials).map_err(|index| {
+            BuildError::BadIndex {
                 what: "image",
                 index,
-            },
-        )
+            }
+        })
     }
 
     /// Indices of the emitters at infinity.
@@ -643,37 +595,6 @@ impl SceneBuilder {
     /// straight through with `thindielectric` slabs counted.
     fn pass_through(&self, bsdf_flags: &[crate::bsdf::BsdfFlags]) -> (bool, bool) {
         pass_through(&self.shape_info, &self.materials, bsdf_flags)
-    }
-
-    /// The light sampler over the emitters, in a scene whose geometry is
-    /// the world group of `groups` (its bounding sphere, or a unit one
-    /// when it has none, sets the scale of the light BVH).
-    fn build_light_sampler(
-        &self,
-        groups: &[Group],
-        compensated: &[bool],
-        distributions: &[Distribution2D],
-    ) -> LightSampler {
-        let bounds = groups.first().map_or(Bounds3::EMPTY, |g| g.bvh.bounds());
-        let radius = if bounds.is_empty() {
-            1.0
-        } else {
-            0.5 * bounds.extent().length()
-        };
-        LightSampler::new(
-            self.light_selection,
-            &self.emitters,
-            &self.emitter_options,
-            compensated,
-            &EmitterContext {
-                shapes: &self.shapes,
-                meshes: &self.meshes,
-                images: &self.materials.images,
-                materials: &self.materials,
-                distributions,
-            },
-            radius,
-        )
     }
 
     /// Per shape, whether its hits may take any shading frame about the

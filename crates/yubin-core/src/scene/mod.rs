@@ -18,10 +18,10 @@
 //! - `packet.rs`: closest and any hits of eight rays at once in small
 //!   trees;
 //! - `build.rs`: [`SceneBuilder`] and [`BuildError`]: checking what was
-//!   added and building the BVHs and the per-BSDF and per-emitter tables;
+//!   added and building the BVHs and the per-BSDF and per-shape tables;
 //! - `media.rs`: what shadow rays and media see of surfaces
 //!   (pass-through surfaces, transmittance, the medium on either side);
-//! - `emitters.rs`: emitter queries and light selection.
+//! - `emitters.rs`: emitter queries.
 
 mod build;
 mod emitters;
@@ -36,13 +36,11 @@ pub use parameters::{EditTarget, Editable, RebuildCounts};
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::film::Film;
-use crate::integrator::wide::{DiffuseSides, RectangleLight};
 use crate::interaction::SurfaceInteraction;
-use crate::light::{AreaLight, Emitter, EmitterOptions, LightSampler};
+use crate::light::{AreaLight, Emitter, EmitterOptions};
 use crate::material::Materials;
 use crate::math::Bounds3;
 use crate::sampler::Sampler;
-use crate::sampling::Distribution2D;
 use crate::shape::{PrimHit, Shape, TriangleMesh};
 use crate::texture::Tex;
 use traversal::{Group, Instance};
@@ -145,7 +143,10 @@ pub enum ShadowHit {
     Surface(SurfaceInteraction),
 }
 
-/// A scene ready to render.
+/// A scene ready to render: what the scene describes. What a render
+/// builds from it for its integrator (the light sampler, the emitters'
+/// sampling distributions, the integrators' own tables) the render holds
+/// (`render::RenderState`).
 #[derive(Clone, Debug)]
 pub struct Scene {
     /// Triangle data.
@@ -156,17 +157,13 @@ pub struct Scene {
     pub shape_info: Vec<ShapeInfo>,
     /// BSDFs, textures and texture images.
     pub materials: Materials,
-    /// Emitters.
+    /// Emitters, as the scene describes them: a render samples its own
+    /// copies, which refer to its sampling distributions.
     pub emitters: Vec<Emitter>,
     /// Per emitter: visibility and sampling weight.
     pub emitter_options: Vec<EmitterOptions>,
-    /// Chooses emitters for next-event estimation.
-    pub light_sampler: LightSampler,
     /// Indices of emitters at infinity (hit by escaping rays).
     pub environment_emitters: Vec<u32>,
-    /// Sampling distributions that emitters refer to by index (one per
-    /// `envmap`), made by [`SceneBuilder::build`].
-    pub light_distributions: Vec<Distribution2D>,
     /// The camera.
     pub camera: Camera,
     /// The film.
@@ -187,12 +184,6 @@ pub struct Scene {
     /// of [`Materials::bsdfs`], asked at every bounce: taken once (nested
     /// BSDFs ask theirs recursively).
     bsdf_flags: Vec<crate::bsdf::BsdfFlags>,
-    /// Per BSDF, its reflectances when it is a constant `diffuse` (alone
-    /// or in `twosided`), which the path tracer shades eight at a time.
-    diffuse_sides: Vec<Option<DiffuseSides>>,
-    /// Per emitter, the rectangle light it is, if it is one of constant
-    /// radiance, which the path tracer samples eight at a time.
-    rectangle_lights: Vec<Option<RectangleLight>>,
     /// Some shape's BSDF lets light through (`null`, `mask`): shadow rays
     /// may have to look past their first hit.
     has_pass_through: bool,
@@ -238,12 +229,5 @@ impl Scene {
     #[inline]
     pub fn bsdf_flags_of(&self, shape: u32) -> crate::bsdf::BsdfFlags {
         self.bsdf_flags[self.shape_info[shape as usize].bsdf as usize]
-    }
-
-    /// The reflectances of a shape's BSDF, when it is a `diffuse` of
-    /// constant reflectance (alone or in `twosided`).
-    #[inline]
-    pub(crate) fn diffuse_sides_of(&self, shape: u32) -> Option<DiffuseSides> {
-        self.diffuse_sides[self.shape_info[shape as usize].bsdf as usize]
     }
 }

@@ -43,11 +43,7 @@ use super::traversal::Item;
 use super::Scene;
 use crate::bsdf::BsdfModel;
 use crate::camera::Sensor;
-use crate::integrator::wide::{DiffuseSides, RectangleLight};
-use crate::light::{
-    AreaLight, DirectionalAreaLight, Emitter, EmitterContext, EmitterOptions, LightSampler,
-    LightSelection,
-};
+use crate::light::{AreaLight, DirectionalAreaLight, Emitter, EmitterOptions};
 use crate::params::{
     plugin_of, ColorKind, ParamError, ParamValue, Parameter, Params, Record, Replay,
 };
@@ -133,8 +129,6 @@ pub(super) struct Edits {
     /// Per group, its entries in the order they were added.
     group_entries: Vec<Vec<GroupEntry>>,
     pub(super) counts: RebuildCounts,
-    pub(super) light_selection: LightSelection,
-    pub(super) mis_compensation: bool,
 }
 
 impl Edits {
@@ -143,8 +137,6 @@ impl Edits {
             editables: Vec::new(),
             group_entries: vec![Vec::new()],
             counts: RebuildCounts::default(),
-            light_selection: LightSelection::default(),
-            mis_compensation: false,
         }
     }
 
@@ -230,15 +222,14 @@ impl Scene {
                 // BSDFs keep tables made from their textures' means.
                 self.materials.prepare_bsdfs();
                 self.refresh_materials();
-                self.refresh_lights();
             }
             EditTarget::Emitter(i) => {
                 let options = EmitterOptions::from_params(&mut replay)?;
                 let build = plugin_of(&replay, "emitter", crate::light::PLUGINS, None)?;
-                let emitter = build(&mut replay)?;
+                let emitter = self.prepared(build(&mut replay)?)?;
                 self.emitters[i as usize] = emitter;
                 self.emitter_options[i as usize] = options;
-                self.refresh_lights();
+                self.refresh_environment();
             }
             EditTarget::AreaEmitter(i) => {
                 let radiance = replay.texture_or("radiance", ColorKind::Illuminant, Rgb::ONE)?;
@@ -252,7 +243,6 @@ impl Scene {
                 };
                 self.emitters[i as usize] = emitter;
                 self.emitter_options[i as usize] = options;
-                self.refresh_lights();
             }
             EditTarget::Sensor => {
                 let sensor = Sensor::from_params(&mut replay)?;
@@ -274,7 +264,6 @@ impl Scene {
                     self.shapes[i as usize] = old;
                     return Err(ParamError(e.to_string()));
                 }
-                self.refresh_lights();
             }
             EditTarget::Instance(i) => {
                 let to_world = replay.transform_or_identity("to_world")?;
@@ -289,7 +278,6 @@ impl Scene {
                     self.instances[i as usize].to_world = old;
                     return Err(ParamError(e.to_string()));
                 }
-                self.refresh_lights();
             }
         }
         Ok(())
@@ -327,49 +315,26 @@ impl Scene {
     fn refresh_materials(&mut self) {
         let m = &self.materials;
         self.bsdf_flags = m.bsdfs.iter().map(|b| b.flags(m)).collect();
-        self.diffuse_sides = (m.bsdfs.iter()).map(|b| DiffuseSides::of(m, b)).collect();
         (self.has_pass_through, self.has_null_transmission) =
             pass_through(&self.shape_info, m, &self.bsdf_flags);
         self.free_frame = free_frames(&self.shape_info, m, self.uv_unread);
     }
 
-    /// The light distributions, the emitters at infinity, the wide
-    /// shading's rectangle lights and the light sampler, as the build
-    /// makes them.
-    fn refresh_lights(&mut self) {
-        let compensated: Vec<bool> = (self.emitter_options.iter())
-            .map(|o| self.edits.mis_compensation && o.visible_indirect)
-            .collect();
-        // Images are checked at load and are not edited.
-        self.light_distributions =
-            crate::light::build_distributions(&mut self.emitters, &self.materials, &compensated)
-                .unwrap_or_default();
+    /// `emitter` fitted to the scene as the build fits it
+    /// (`light::prepare_emitters`). The light sampler and the emitters'
+    /// sampling tables belong to each render (`render::RenderState`).
+    fn prepared(&self, emitter: Emitter) -> Result<Emitter, ParamError> {
+        let mut one = [emitter];
+        crate::light::prepare_emitters(&mut one, &self.materials)
+            .map_err(|index| ParamError(format!("no image {index} in the scene")))?;
+        Ok(one[0])
+    }
+
+    /// The list of emitters at infinity.
+    fn refresh_environment(&mut self) {
         self.environment_emitters = (self.emitters.iter().enumerate())
             .filter(|(_, e)| e.is_environment())
             .map(|(i, _)| i as u32)
             .collect();
-        self.rectangle_lights = (self.emitters.iter().zip(&self.emitter_options))
-            .map(|(e, o)| RectangleLight::of(e, o, &self.shapes))
-            .collect();
-        let bounds = self.bounds();
-        let radius = if bounds.is_empty() {
-            1.0
-        } else {
-            0.5 * bounds.extent().length()
-        };
-        self.light_sampler = LightSampler::new(
-            self.edits.light_selection,
-            &self.emitters,
-            &self.emitter_options,
-            &compensated,
-            &EmitterContext {
-                shapes: &self.shapes,
-                meshes: &self.meshes,
-                images: &self.materials.images,
-                materials: &self.materials,
-                distributions: &self.light_distributions,
-            },
-            radius,
-        );
     }
 }

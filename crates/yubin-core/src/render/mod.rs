@@ -2,6 +2,15 @@
 //! tiles in parallel, each into its own [`TileBuffer`]; buffers are merged
 //! in tile order. Every sample value depends only on (pixel, sample index,
 //! dimension, seed), so the image is bit-identical for any thread count.
+//!
+//! A render first builds what its integrator needs of the scene beyond
+//! the scene itself, once ([`RenderState`], in `state.rs`: the light
+//! sampler, the emitters' sampling distributions, the wide shading's
+//! tables); its integrator sees the two together as a [`RenderScene`].
+
+mod state;
+
+pub use state::{LightOptions, RenderScene, RenderState};
 
 use crate::camera::Perspective;
 use crate::film::{Framebuffer, Tile, TileBuffer};
@@ -25,7 +34,8 @@ pub struct RenderSettings {
     pub seed: u32,
 }
 
-/// Renders `scene` with `integrator`. `progress` is called after each tile
+/// Renders `scene` with `integrator` (building the render's
+/// [`RenderState`] first). `progress` is called after each tile
 /// with the number of samples it took (from several threads at once).
 /// Samples that come out non-finite are dropped and counted.
 pub fn render(
@@ -53,6 +63,8 @@ pub fn render(
 #[derive(Debug)]
 pub struct Progressive<'a> {
     scene: &'a Scene,
+    /// What the integrator needs of the scene, built once for the render.
+    render_state: RenderState,
     integrator: &'a dyn Integrator,
     settings: RenderSettings,
     pass_spp: u32,
@@ -145,7 +157,7 @@ impl Halves {
 
 impl<'a> Progressive<'a> {
     /// A render of `settings.spp` samples per pixel in passes of
-    /// `pass_spp` (at least 1).
+    /// `pass_spp` (at least 1); builds the render's [`RenderState`].
     pub fn new(
         scene: &'a Scene,
         integrator: &'a dyn Integrator,
@@ -156,6 +168,7 @@ impl<'a> Progressive<'a> {
         let channels = integrator.channel_count();
         Self {
             scene,
+            render_state: RenderState::new(scene, integrator),
             integrator,
             settings,
             pass_spp: pass_spp.max(1),
@@ -312,6 +325,7 @@ impl<'a> Progressive<'a> {
                 .min(self.settings.spp);
         let crop = self.scene.film.crop_size;
         let active = (!self.active.is_empty()).then_some(self.active.as_slice());
+        let scene = RenderScene::new(self.scene, &self.render_state);
         // One job per tile: rayon's default splitting hands each thread
         // runs of tiles it cannot give away once started, which can leave
         // a thread idle at the end of a render while another finishes its
@@ -321,7 +335,7 @@ impl<'a> Progressive<'a> {
             .with_max_len(1)
             .map(|&tile| {
                 let job = TileJob {
-                    scene: self.scene,
+                    scene,
                     integrator: self.integrator,
                     seed: self.settings.seed,
                     filter: &self.filter,
@@ -424,7 +438,7 @@ fn tiles(crop: [u32; 2]) -> Vec<Tile> {
 
 /// What a pass asks of each tile.
 struct TileJob<'a> {
-    scene: &'a Scene,
+    scene: RenderScene<'a>,
     integrator: &'a dyn Integrator,
     seed: u32,
     filter: &'a FilterTable,
@@ -565,7 +579,7 @@ impl TileJob<'_> {
         let n = batch.rays.len();
         let values = &mut out.values[..n * self.channels];
         self.integrator
-            .sample_packet(self.scene, &batch.rays, &mut batch.streams, values);
+            .sample_packet(&self.scene, &batch.rays, &mut batch.streams, values);
         // RGB samples' footprints are weighed eight at a time.
         let by_eight = self.channels == 3 && !self.filter.is_box();
         for (spots, values) in batch.spots.chunks(8).zip(values.chunks(8 * self.channels)) {
