@@ -248,6 +248,11 @@ fn a_bad_update_names_the_key_and_leaves_the_scene_unchanged() {
             ParamValue::String("big".into()),
             "is a float",
         ),
+        (
+            "sensor.sampler.seed",
+            ParamValue::Integer(3),
+            "RenderSettings::seed",
+        ),
     ];
     for (key, value, says) in bad {
         let e = s.scene.update(key, value).expect_err(key).to_string();

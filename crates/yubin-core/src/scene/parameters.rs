@@ -35,8 +35,9 @@
 //! test can show that an edit rebuilt nothing it did not need to.
 //! Not editable: mesh shapes (their file is not read again; place a mesh
 //! in a `shapegroup` and move its `instance`), file names (images,
-//! grids), which object a reference points to, and instances that carry
-//! emitting shapes.
+//! grids), which object a reference points to, the sampler's `seed`
+//! (the render's, not the scene's), and emitting shapes in shape groups
+//! and the instances that place them (each instance holds a copy).
 
 use super::build::{build_group, free_frames, pass_through, unbuilt_group, BuildError, Geometry};
 use super::traversal::Item;
@@ -183,6 +184,12 @@ impl Scene {
                 "unknown scene parameter \"{key}\" (Scene::parameters lists them)"
             ))
         })?;
+        if self.edits.editables[index].target == EditTarget::Sensor && path == "sampler.seed" {
+            return Err(ParamError(format!(
+                "scene parameter \"{key}\" is the render's, not the scene's: \
+                 set RenderSettings::seed (yubin render --seed)"
+            )));
+        }
         let mut record = self.edits.editables[index].record.clone();
         (record.set(path, value))
             .map_err(|msg| ParamError(format!("scene parameter \"{key}\" {msg}")))?;
@@ -259,6 +266,12 @@ impl Scene {
                 };
                 let group =
                     (self.edits.group_of_shape(i)).ok_or_else(|| replay.error("is in no group"))?;
+                if self.placed_emitters.iter().any(|&(shape, _)| shape == i) {
+                    return Err(replay.error(
+                        "an emitting shape in a shape group (copied per instance) cannot be \
+                         edited in place",
+                    ));
+                }
                 let old = std::mem::replace(&mut self.shapes[i as usize], shape);
                 if let Err(e) = self.rebuild_groups_from(group) {
                     self.shapes[i as usize] = old;
