@@ -77,7 +77,7 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         reading: Vec::new(),
         texture_reads: HashMap::new(),
         bsdf_reads: HashMap::new(),
-        keys: std::collections::HashSet::new(),
+        keys: HashMap::new(),
         parents: Vec::new(),
     };
     let root = &desc.root;
@@ -211,8 +211,9 @@ pub(crate) struct Builder<'a> {
     texture_reads: HashMap<u32, Vec<u32>>,
     /// Mesh attributes each built BSDF reads through its textures.
     bsdf_reads: HashMap<u32, Vec<u32>>,
-    /// Keys given to editable objects (`Scene::parameters`).
-    keys: std::collections::HashSet<String>,
+    /// Keys given to editable objects (`Scene::parameters`), each with
+    /// the suffix its next unnamed namesake tries.
+    keys: HashMap<String, u32>,
     /// Keys of the objects being built, innermost last: a nested object
     /// without an id is named after its parent.
     parents: Vec<String>,
@@ -637,13 +638,16 @@ impl Builder<'_> {
             (None, None) if role == "sensor" => role.to_string(),
             (None, None) => obj.plugin_type.clone(),
         };
+        // The suffix to try next for each name, so that a scene of many
+        // unnamed spheres takes one look per sphere, not one per sphere
+        // named before it.
         let mut key = base.clone();
-        let mut n = 0;
-        while self.keys.contains(&key) {
-            n += 1;
+        while self.keys.contains_key(&key) {
+            let n = self.keys.get_mut(&base).expect("the base is taken");
+            *n += 1;
             key = format!("{base}_{n}");
         }
-        self.keys.insert(key.clone());
+        self.keys.insert(key.clone(), 0);
         key
     }
 

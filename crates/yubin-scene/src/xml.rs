@@ -233,6 +233,22 @@ struct Source<'a, 'input> {
     dir: PathBuf,
     /// Whether the file predates Mitsuba 2 and needs the legacy upgrades.
     legacy: bool,
+    /// Byte offset of each line's start: a location is a binary search
+    /// (roxmltree's `text_pos_at` scans the text from its start, which
+    /// made loading a scene of many objects quadratic in its size).
+    line_starts: Vec<usize>,
+}
+
+/// Byte offsets where the lines of `text` start.
+fn line_starts(text: &str) -> Vec<usize> {
+    std::iter::once(0)
+        .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+        .collect()
+}
+
+/// The 1-based line of byte offset `pos`, given the lines' starts.
+fn line_at(line_starts: &[usize], pos: usize) -> u32 {
+    line_starts.partition_point(|&start| start <= pos) as u32
 }
 
 /// An attribute value after `$` substitution, with its line.
@@ -380,6 +396,7 @@ impl Parser {
                 dir: directory_of(&file),
                 file,
                 legacy: src.legacy,
+                line_starts: line_starts(doc.input_text()),
             };
             self.parse_element(&nested, root, target)
         };
@@ -810,6 +827,7 @@ impl<'a, 'input> Source<'a, 'input> {
             dir: directory_of(&file),
             file,
             legacy: version < (2, 0, 0),
+            line_starts: line_starts(doc.input_text()),
         }
     }
 
@@ -820,7 +838,7 @@ impl<'a, 'input> Source<'a, 'input> {
 
     /// The location of byte offset `pos`.
     fn loc_at(&self, pos: usize) -> Location {
-        Location::new(self.file.clone(), self.doc.text_pos_at(pos).row)
+        Location::new(self.file.clone(), line_at(&self.line_starts, pos))
     }
 
     fn error(&self, node: Node, msg: impl Into<String>) -> SceneError {
@@ -1127,6 +1145,21 @@ fn to_snake_case(name: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn line_lookup_agrees_with_roxmltree_at_every_byte() {
+        let text =
+            "<scene version=\"3.0.0\">\r\n\n  <shape type=\"sphere\"/>\n<!-- é -->\n</scene>\n";
+        let doc = Document::parse(text).unwrap();
+        let starts = line_starts(text);
+        for pos in (0..=text.len()).filter(|&p| text.is_char_boundary(p)) {
+            assert_eq!(
+                line_at(&starts, pos),
+                doc.text_pos_at(pos).row,
+                "byte {pos}"
+            );
+        }
+    }
     use glam::{DVec4, Vec3};
 
     fn parse(text: &str) -> Result<SceneDesc, SceneError> {

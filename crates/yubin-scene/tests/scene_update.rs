@@ -41,6 +41,15 @@ const SCENE: &str = r#"<scene version="3.0.0">
             <transform name="to_world"><scale value="0.3"/></transform>
         </shape>
     </shape>
+    <shape type="disk" id="floor">
+        <transform name="to_world"><rotate x="1" angle="-90"/><scale value="2"/><translate y="-1"/></transform>
+        <bsdf type="diffuse">
+            <texture type="checkerboard" name="reflectance">
+                <rgb name="color0" value="{check}"/>
+                <rgb name="color1" value="0.1, 0.1, 0.1"/>
+            </texture>
+        </bsdf>
+    </shape>
     <shape type="instance" id="boxes">
         <ref id="pair"/>
         <transform name="to_world"><translate {instance}/></transform>
@@ -59,6 +68,7 @@ struct Edit {
     ball: &'static str,
     instance: &'static str,
     sky: &'static str,
+    check: &'static str,
 }
 
 const BASE: Edit = Edit {
@@ -68,6 +78,7 @@ const BASE: Edit = Edit {
     ball: r#"x="0.5" y="0" z="0""#,
     instance: r#"x="-1" y="-0.5" z="0.5""#,
     sky: "0.2, 0.2, 0.3",
+    check: "0.8, 0.8, 0.2",
 };
 
 fn text(e: &Edit) -> String {
@@ -78,6 +89,7 @@ fn text(e: &Edit) -> String {
         .replace("{ball}", e.ball)
         .replace("{instance}", e.instance)
         .replace("{sky}", e.sky)
+        .replace("{check}", e.check)
 }
 
 fn load_text(text: &str) -> LoadedScene {
@@ -168,6 +180,39 @@ fn an_environment_edit_renders_as_the_edited_file_and_builds_no_bvh() {
     };
     let value = ParamValue::Color(Rgb::new(0.5, 0.1, 0.05));
     assert_eq!(check_update("sky.radiance.value", value, &edited), 0);
+}
+
+#[test]
+fn a_texture_edit_renders_as_the_edited_file_and_builds_no_bvh() {
+    let edited = Edit {
+        check: "0.2, 0.9, 0.9",
+        ..BASE
+    };
+    let value = ParamValue::Color(Rgb::new(0.2, 0.9, 0.9));
+    let key = "floor.bsdf.reflectance.color0.value";
+    assert_eq!(check_update(key, value, &edited), 0);
+}
+
+#[test]
+fn a_medium_edit_renders_as_the_edited_file() {
+    let fog = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/fog.xml");
+    let text = std::fs::read_to_string(&fog).expect("scenes/fog.xml");
+    let small = |text: &str| {
+        let defines = [("resx", "24"), ("resy", "18"), ("spp", "4")];
+        let defines = defines.map(|(k, v)| (k.to_string(), v.to_string()));
+        load_scene_str(text, &fog, &defines).expect("the fog scene loads")
+    };
+    let mut s = small(&text);
+    let before = image(&s);
+    s.scene.update("fog.scale", ParamValue::Float(3.0)).unwrap();
+    (s.scene)
+        .update("fog.phase_function.g", ParamValue::Float(-0.2))
+        .unwrap();
+    let edited = text
+        .replace(r#"value="$fog""#, r#"value="3""#)
+        .replace(r#"name="g" value="0.3""#, r#"name="g" value="-0.2""#);
+    assert!(image(&s) != before, "the edit changes the image");
+    assert!(image(&s) == image(&small(&edited)));
 }
 
 #[test]
