@@ -226,8 +226,7 @@ impl Resolver<'_> {
 }
 
 /// One XML document being read: the tree, its file name and its version.
-struct Source<'a, 'input> {
-    doc: &'a Document<'input>,
+struct Source {
     file: Arc<PathBuf>,
     /// The directory of `file`.
     dir: PathBuf,
@@ -392,7 +391,6 @@ impl Parser {
             self.parse_body(&nested, root, target)
         } else {
             let nested = Source {
-                doc: &doc,
                 dir: directory_of(&file),
                 file,
                 legacy: src.legacy,
@@ -820,10 +818,9 @@ impl Parser {
     }
 }
 
-impl<'a, 'input> Source<'a, 'input> {
-    fn new(doc: &'a Document<'input>, file: Arc<PathBuf>, version: (u32, u32, u32)) -> Self {
+impl Source {
+    fn new(doc: &Document, file: Arc<PathBuf>, version: (u32, u32, u32)) -> Self {
         Self {
-            doc,
             dir: directory_of(&file),
             file,
             legacy: version < (2, 0, 0),

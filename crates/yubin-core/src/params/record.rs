@@ -154,7 +154,49 @@ pub struct Parameter {
 struct Entry {
     name: String,
     kind: ParamKind,
-    value: Option<ParamValue>,
+    value: Option<Stored>,
+}
+
+/// A [`ParamValue`] as a record keeps it: a transform boxed, so that the
+/// records of a scene of many shapes (each with its `to_world`, most of
+/// their other values scalars) take a third of the memory.
+#[derive(Clone, Debug, PartialEq)]
+enum Stored {
+    Float(f32),
+    Integer(i64),
+    Boolean(bool),
+    String(Box<str>),
+    Vector(Vec3),
+    Transform(Box<DMat4>),
+    Color(Rgb),
+}
+
+impl From<ParamValue> for Stored {
+    fn from(v: ParamValue) -> Self {
+        match v {
+            ParamValue::Float(v) => Stored::Float(v),
+            ParamValue::Integer(v) => Stored::Integer(v),
+            ParamValue::Boolean(v) => Stored::Boolean(v),
+            ParamValue::String(v) => Stored::String(v.into()),
+            ParamValue::Vector(v) => Stored::Vector(v),
+            ParamValue::Transform(m) => Stored::Transform(Box::new(m)),
+            ParamValue::Color(c) => Stored::Color(c),
+        }
+    }
+}
+
+impl Stored {
+    fn value(&self) -> ParamValue {
+        match self {
+            Stored::Float(v) => ParamValue::Float(*v),
+            Stored::Integer(v) => ParamValue::Integer(*v),
+            Stored::Boolean(v) => ParamValue::Boolean(*v),
+            Stored::String(v) => ParamValue::String(v.to_string()),
+            Stored::Vector(v) => ParamValue::Vector(*v),
+            Stored::Transform(m) => ParamValue::Transform(**m),
+            Stored::Color(c) => ParamValue::Color(*c),
+        }
+    }
 }
 
 /// A nested object the plugin asked for, and how.
@@ -216,7 +258,7 @@ impl Record {
             out.push(Parameter {
                 key: entry_key(prefix, e),
                 kind: e.kind,
-                value: e.value.clone(),
+                value: e.value.as_ref().map(Stored::value),
             });
         }
         for (label, child) in self.labelled_children() {
@@ -255,7 +297,7 @@ impl Record {
                 .kind
                 .coerce(value.clone())
                 .ok_or_else(|| format!("is {}, not {}", e.kind.type_name(), value.type_name()))?;
-            e.value = Some(value);
+            e.value = Some(value.into());
             if e.kind == ParamKind::Transform {
                 let name = e.name.clone();
                 self.look_at.retain(|(n, _)| *n != name);
@@ -375,7 +417,7 @@ impl<'a> Recorder<'a> {
         wrap: impl FnOnce(&T) -> ParamValue,
     ) -> Result<Option<T>, ParamError> {
         let v = get(self.inner.get())?;
-        let value = v.as_ref().map(wrap);
+        let value = v.as_ref().map(|v| wrap(v).into());
         self.record.entries.retain(|e| e.name != name);
         self.record.entries.push(Entry {
             name: name.to_string(),
@@ -548,7 +590,7 @@ impl Params for Recorder<'_> {
                 name: name.to_string(),
                 kind: ParamKind::Texture(kind),
                 value: t.map(|t| match t {
-                    Tex::Const(c) => ParamValue::Color(c),
+                    Tex::Const(c) => Stored::Color(c),
                     Tex::Texture(_) => unreachable!("matched above"),
                 }),
             }),
@@ -603,7 +645,7 @@ impl<'a> Replay<'a> {
 
     fn value(&self, name: &str, kind: ParamKind) -> Result<Option<ParamValue>, ParamError> {
         match self.record.entry(name, kind) {
-            Some(e) => Ok(e.value.clone()),
+            Some(e) => Ok(e.value.as_ref().map(Stored::value)),
             None => Err(self.not_recorded(name)),
         }
     }
