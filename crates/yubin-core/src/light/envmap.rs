@@ -218,16 +218,8 @@ impl EnvMapLight {
                 .collect()
         };
         if self.mis_compensation == Some(true) {
-            // The mean over solid angle, which the sin θ weights measure.
-            let (sum, area) = (0..rows)
-                .into_par_iter()
-                .map(|r| {
-                    let s = sin_theta(r) as f64;
-                    let row: f64 = (0..w).map(|c| patch(r, c).max(0.0) as f64).sum();
-                    (row * s, s * w as f64)
-                })
-                .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
-            let compensated = build((sum / area) as f32);
+            let mean = mean_over_solid_angle(rows, w, patch, sin_theta);
+            let compensated = build(mean as f32);
             // A map that is its mean everywhere has nothing left: keep it.
             if compensated.iter().any(|d| d.integral() > 0.0) {
                 return Distribution2D::from_rows(compensated);
@@ -327,6 +319,29 @@ impl EmitterModel for EnvMapLight {
     }
 }
 
+/// The mean of `patch(r, c)` (clamped at 0) over the sphere, rows `r`
+/// weighted by `sin_theta(r)`, in f64. Rows are summed in parallel but
+/// added in order: a parallel reduction adds them in an order that
+/// depends on the thread count, and the image must not.
+fn mean_over_solid_angle(
+    rows: usize,
+    w: usize,
+    patch: impl Fn(usize, usize) -> f32 + Sync,
+    sin_theta: impl Fn(usize) -> f32 + Sync,
+) -> f64 {
+    use rayon::prelude::*;
+    let rows: Vec<(f64, f64)> = (0..rows)
+        .into_par_iter()
+        .map(|r| {
+            let s = sin_theta(r) as f64;
+            let row: f64 = (0..w).map(|c| patch(r, c).max(0.0) as f64).sum();
+            (row * s, s * w as f64)
+        })
+        .collect();
+    let (sum, area) = (rows.iter()).fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    sum / area
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -353,6 +368,22 @@ pub(crate) mod tests {
             images,
             distributions: dists,
             ..EmitterContext::EMPTY
+        }
+    }
+
+    #[test]
+    fn the_compensation_mean_does_not_depend_on_the_thread_count() {
+        // Values whose sums round differently when added in another order.
+        let patch = |r: usize, c: usize| ((r * 131 + c * 71) % 997) as f32 * 1.37e-3 + 1e-7;
+        let sin_theta = |r: usize| (PI * (r as f32 + 0.5) / 4096.0).sin();
+        let in_pool = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+            pool.unwrap()
+                .install(|| mean_over_solid_angle(4096, 8, patch, sin_theta).to_bits())
+        };
+        let one = in_pool(1);
+        for threads in [2, 3, 5, 8] {
+            assert_eq!(in_pool(threads), one, "{threads} threads");
         }
     }
 
