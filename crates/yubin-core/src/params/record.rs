@@ -219,6 +219,20 @@ struct Child {
     record: Option<Record>,
 }
 
+/// An answer a record keeps that is not a value.
+#[derive(Clone, Debug)]
+enum Other {
+    /// A texturable parameter that held a texture object (not editable by
+    /// value; the texture has its own record).
+    Texture(String, Tex),
+    LookAt(String, Option<Vec3>),
+    NestedTextures(Vec<Tex>),
+    Bsdfs(Vec<u32>),
+    Image(String, Option<u32>),
+    Grid(String, Option<Arc<Grid>>),
+    Attribute(String, u32),
+}
+
 /// Everything a plugin read of its parameters, in a form it can read
 /// again ([`Replay`]).
 #[derive(Clone, Debug, Default)]
@@ -226,16 +240,10 @@ pub struct Record {
     describe: String,
     plugin_type: String,
     entries: Vec<Entry>,
-    /// Texturable parameters that held a texture object (not editable by
-    /// value; the texture has its own record).
-    textures: Vec<(String, Tex)>,
-    look_at: Vec<(String, Option<Vec3>)>,
     children: Vec<Child>,
-    nested_textures: Option<Vec<Tex>>,
-    bsdfs: Option<Vec<u32>>,
-    images: Vec<(String, Option<u32>)>,
-    grids: Vec<(String, Option<Arc<Grid>>)>,
-    attributes: Vec<(String, u32)>,
+    /// The other answers, which few plugins ask for (one list rather than
+    /// one per kind keeps a record small).
+    other: Vec<Other>,
     /// The plugin read a mesh file, which a replay cannot do.
     read_mesh: bool,
 }
@@ -300,7 +308,7 @@ impl Record {
             e.value = Some(value.into());
             if e.kind == ParamKind::Transform {
                 let name = e.name.clone();
-                self.look_at.retain(|(n, _)| *n != name);
+                (self.other).retain(|o| !matches!(o, Other::LookAt(n, _) if *n == name));
             }
             return Ok(());
         }
@@ -315,18 +323,70 @@ impl Record {
                 }
             }
         }
-        if let Some((name, _)) = (self.textures.iter()).find(|(n, _)| path.starts_with(n.as_str()))
-        {
+        let texture = |o: &Other| match o {
+            Other::Texture(n, _) if path.starts_with(n.as_str()) => Some(n.clone()),
+            _ => None,
+        };
+        if let Some(name) = self.other.iter().find_map(texture) {
             return Err(format!(
                 "\"{name}\" is a texture: edit the texture's own parameters"
             ));
         }
-        if let Some((name, _)) = (self.images.iter()).find(|(n, _)| n == path) {
+        if let Some(name) = self.image(path).map(|_| path) {
             return Err(format!(
                 "\"{name}\" names a file, which an update does not read: load the scene again"
             ));
         }
         Err("is not a parameter of this scene".to_string())
+    }
+
+    fn texture(&self, name: &str) -> Option<Tex> {
+        self.other.iter().find_map(|o| match o {
+            Other::Texture(n, t) if n == name => Some(*t),
+            _ => None,
+        })
+    }
+
+    fn look_at(&self, name: &str) -> Option<Option<Vec3>> {
+        self.other.iter().find_map(|o| match o {
+            Other::LookAt(n, t) if n == name => Some(*t),
+            _ => None,
+        })
+    }
+
+    fn image(&self, name: &str) -> Option<Option<u32>> {
+        self.other.iter().find_map(|o| match o {
+            Other::Image(n, i) if n == name => Some(*i),
+            _ => None,
+        })
+    }
+
+    fn grid(&self, name: &str) -> Option<Option<Arc<Grid>>> {
+        self.other.iter().find_map(|o| match o {
+            Other::Grid(n, g) if n == name => Some(g.clone()),
+            _ => None,
+        })
+    }
+
+    fn attribute(&self, name: &str) -> Option<u32> {
+        self.other.iter().find_map(|o| match o {
+            Other::Attribute(n, i) if n == name => Some(*i),
+            _ => None,
+        })
+    }
+
+    fn nested_textures(&self) -> Option<&[Tex]> {
+        self.other.iter().find_map(|o| match o {
+            Other::NestedTextures(t) => Some(t.as_slice()),
+            _ => None,
+        })
+    }
+
+    fn bsdfs(&self) -> Option<&[u32]> {
+        self.other.iter().find_map(|o| match o {
+            Other::Bsdfs(b) => Some(b.as_slice()),
+            _ => None,
+        })
     }
 
     fn entry(&self, name: &str, kind: ParamKind) -> Option<&Entry> {
@@ -504,7 +564,9 @@ impl Params for Recorder<'_> {
     }
     fn grid_file(&mut self, name: &str) -> Result<Option<Arc<Grid>>, ParamError> {
         let g = self.inner.get().grid_file(name)?;
-        self.record.grids.push((name.to_string(), g.clone()));
+        self.record
+            .other
+            .push(Other::Grid(name.to_string(), g.clone()));
         Ok(g)
     }
     fn error_at(&self, name: Option<&str>, msg: &str) -> ParamError {
@@ -571,7 +633,7 @@ impl Params for Recorder<'_> {
     }
     fn look_at_target(&mut self, name: &str) -> Option<Vec3> {
         let t = self.inner.get().look_at_target(name);
-        self.record.look_at.push((name.to_string(), t));
+        self.record.other.push(Other::LookAt(name.to_string(), t));
         t
     }
     fn color(&mut self, name: &str, kind: ColorKind) -> Result<Option<Rgb>, ParamError> {
@@ -585,7 +647,9 @@ impl Params for Recorder<'_> {
     fn texture(&mut self, name: &str, kind: ColorKind) -> Result<Option<Tex>, ParamError> {
         let t = self.inner.get().texture(name, kind)?;
         match t {
-            Some(tex @ Tex::Texture(_)) => self.record.textures.push((name.to_string(), tex)),
+            Some(tex @ Tex::Texture(_)) => {
+                (self.record.other).push(Other::Texture(name.to_string(), tex));
+            }
             _ => self.record.entries.push(Entry {
                 name: name.to_string(),
                 kind: ParamKind::Texture(kind),
@@ -599,17 +663,17 @@ impl Params for Recorder<'_> {
     }
     fn nested_textures(&mut self) -> Result<Vec<Tex>, ParamError> {
         let t = self.inner.get().nested_textures()?;
-        self.record.nested_textures = Some(t.clone());
+        self.record.other.push(Other::NestedTextures(t.clone()));
         Ok(t)
     }
     fn bsdfs(&mut self) -> Result<Vec<(u32, Bsdf)>, ParamError> {
         let b = self.inner.get().bsdfs()?;
-        self.record.bsdfs = Some(b.iter().map(|(i, _)| *i).collect());
+        (self.record.other).push(Other::Bsdfs(b.iter().map(|(i, _)| *i).collect()));
         Ok(b)
     }
     fn image(&mut self, name: &str) -> Result<Option<u32>, ParamError> {
         let i = self.inner.get().image(name)?;
-        self.record.images.push((name.to_string(), i));
+        self.record.other.push(Other::Image(name.to_string(), i));
         Ok(i)
     }
     fn mesh_file(&mut self) -> Result<crate::shape::MeshData, ParamError> {
@@ -618,7 +682,7 @@ impl Params for Recorder<'_> {
     }
     fn attribute_index(&mut self, attribute: &str) -> Result<u32, ParamError> {
         let i = self.inner.get().attribute_index(attribute)?;
-        self.record.attributes.push((attribute.to_string(), i));
+        (self.record.other).push(Other::Attribute(attribute.to_string(), i));
         Ok(i)
     }
     fn mark_ignored(&mut self, name: &str) {
@@ -714,10 +778,7 @@ impl Params for Replay<'_> {
             .map(|r| Box::new(Replay::new(r, self.materials)) as Box<dyn Params>))
     }
     fn grid_file(&mut self, name: &str) -> Result<Option<Arc<Grid>>, ParamError> {
-        (self.record.grids.iter())
-            .find(|(n, _)| n == name)
-            .map(|(_, g)| g.clone())
-            .ok_or_else(|| self.not_recorded(name))
+        (self.record.grid(name)).ok_or_else(|| self.not_recorded(name))
     }
     fn error_at(&self, _name: Option<&str>, msg: &str) -> ParamError {
         ParamError(msg.to_string())
@@ -728,9 +789,9 @@ impl Params for Replay<'_> {
         }
         // A front end answers for parameters the plugin only asks about;
         // a replay knows those it read.
-        self.record.textures.iter().any(|(n, _)| n == name)
-            || (self.record.images.iter()).any(|(n, i)| n == name && i.is_some())
-            || (self.record.grids.iter()).any(|(n, g)| n == name && g.is_some())
+        self.record.texture(name).is_some()
+            || self.record.image(name).is_some_and(|i| i.is_some())
+            || self.record.grid(name).is_some_and(|g| g.is_some())
             || (self.record.children.iter()).any(|c| {
                 matches!(&c.query, ChildQuery::Named(_, n) if n == name) && c.record.is_some()
             })
@@ -743,9 +804,7 @@ impl Params for Replay<'_> {
     replay_getter!(vector, Vec3, ParamKind::Vector, ParamValue::Vector(v) => v);
     replay_getter!(transform, DMat4, ParamKind::Transform, ParamValue::Transform(m) => m);
     fn look_at_target(&mut self, name: &str) -> Option<Vec3> {
-        (self.record.look_at.iter())
-            .find(|(n, _)| n == name)
-            .and_then(|(_, t)| *t)
+        self.record.look_at(name).flatten()
     }
     fn color(&mut self, name: &str, kind: ColorKind) -> Result<Option<Rgb>, ParamError> {
         match self.value(name, ParamKind::Color(kind))? {
@@ -755,8 +814,8 @@ impl Params for Replay<'_> {
         }
     }
     fn texture(&mut self, name: &str, kind: ColorKind) -> Result<Option<Tex>, ParamError> {
-        if let Some((_, t)) = self.record.textures.iter().find(|(n, _)| n == name) {
-            return Ok(Some(*t));
+        if let Some(t) = self.record.texture(name) {
+            return Ok(Some(t));
         }
         match self.value(name, ParamKind::Texture(kind))? {
             None => Ok(None),
@@ -767,10 +826,10 @@ impl Params for Replay<'_> {
         }
     }
     fn nested_textures(&mut self) -> Result<Vec<Tex>, ParamError> {
-        Ok(self.record.nested_textures.clone().unwrap_or_default())
+        Ok(self.record.nested_textures().unwrap_or_default().to_vec())
     }
     fn bsdfs(&mut self) -> Result<Vec<(u32, Bsdf)>, ParamError> {
-        let indices = self.record.bsdfs.as_deref().unwrap_or_default();
+        let indices = self.record.bsdfs().unwrap_or_default();
         indices
             .iter()
             .map(|&i| {
@@ -783,19 +842,13 @@ impl Params for Replay<'_> {
             .collect()
     }
     fn image(&mut self, name: &str) -> Result<Option<u32>, ParamError> {
-        (self.record.images.iter())
-            .find(|(n, _)| n == name)
-            .map(|(_, i)| *i)
-            .ok_or_else(|| self.not_recorded(name))
+        (self.record.image(name)).ok_or_else(|| self.not_recorded(name))
     }
     fn mesh_file(&mut self) -> Result<crate::shape::MeshData, ParamError> {
         Err(self.error("a mesh file is not read again by an update: load the scene again"))
     }
     fn attribute_index(&mut self, attribute: &str) -> Result<u32, ParamError> {
-        (self.record.attributes.iter())
-            .find(|(n, _)| n == attribute)
-            .map(|(_, i)| *i)
-            .ok_or_else(|| self.not_recorded(attribute))
+        (self.record.attribute(attribute)).ok_or_else(|| self.not_recorded(attribute))
     }
     fn mark_ignored(&mut self, _name: &str) {}
     fn warn(&mut self, _name: Option<&str>, _msg: &str) {}
