@@ -58,14 +58,31 @@ impl Materials {
     pub fn replace_bsdf(&mut self, index: u32, mut b: Bsdf) {
         b.prepare(self);
         self.bsdfs[index as usize] = b;
+        self.drop_stale_tables();
     }
 
     /// Makes every BSDF's tables again (after a texture changed).
     pub fn prepare_bsdfs(&mut self) {
+        self.prepare_each();
+        self.drop_stale_tables();
+    }
+
+    fn prepare_each(&mut self) {
         for i in 0..self.bsdfs.len() {
             let mut b = self.bsdfs[i];
             b.prepare(self);
             self.bsdfs[i] = b;
+        }
+    }
+
+    /// Tables of values no BSDF holds any more pile up as a parameter is
+    /// edited (a slider, an animation); past twice as many as there are
+    /// BSDFs, they are made again from scratch, so that their number
+    /// stays bounded and an edit integrates one table on average.
+    fn drop_stale_tables(&mut self) {
+        if self.rough_transmittance.len() > 2 * self.bsdfs.len() {
+            self.rough_transmittance.clear();
+            self.prepare_each();
         }
     }
 }

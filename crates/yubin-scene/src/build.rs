@@ -77,7 +77,9 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         reading: Vec::new(),
         texture_reads: HashMap::new(),
         bsdf_reads: HashMap::new(),
-        keys: HashMap::new(),
+        keys: std::collections::HashSet::new(),
+        suffixes: HashMap::new(),
+        ids: all_ids(&desc.root),
         parents: Vec::new(),
     };
     let root = &desc.root;
@@ -211,12 +213,29 @@ pub(crate) struct Builder<'a> {
     texture_reads: HashMap<u32, Vec<u32>>,
     /// Mesh attributes each built BSDF reads through its textures.
     bsdf_reads: HashMap<u32, Vec<u32>>,
-    /// Keys given to editable objects (`Scene::parameters`), each with
-    /// the suffix its next unnamed namesake tries.
-    keys: HashMap<String, u32>,
+    /// Keys given to editable objects (`Scene::parameters`).
+    keys: std::collections::HashSet<String>,
+    /// Per name, the last suffix a key made from it took, so that a scene
+    /// of many unnamed spheres takes one look per sphere, not one per
+    /// sphere named before it.
+    suffixes: HashMap<String, u32>,
+    /// Every id in the file: a generated key never takes one, so that an
+    /// object keeps its id as its key whatever comes before it.
+    ids: std::collections::HashSet<String>,
     /// Keys of the objects being built, innermost last: a nested object
     /// without an id is named after its parent.
     parents: Vec<String>,
+}
+
+/// The ids of `obj` and every object nested in it.
+fn all_ids(obj: &Object) -> std::collections::HashSet<String> {
+    let mut ids = std::collections::HashSet::new();
+    let mut stack = vec![obj];
+    while let Some(o) = stack.pop() {
+        ids.extend(o.id.clone());
+        stack.extend(o.children.iter().map(|c| &*c.object));
+    }
+    ids
 }
 
 /// The constructor of `obj`'s plugin type in a family's plugin table; an
@@ -250,8 +269,12 @@ impl Builder<'_> {
     /// Builds camera, film and sampler; returns the sampler's seed.
     fn sensor(&mut self, obj: &Object) -> Result<u32, SceneError> {
         let (sensor, editable) = self.recorded(obj, "sensor", Sensor::from_params)?;
+        let key = editable.key.clone();
         self.sb.record(editable.of(EditTarget::Sensor));
-        let medium = self.medium_child(obj, None)?;
+        self.parents.push(key);
+        let medium = self.medium_child(obj, None);
+        self.parents.pop();
+        let medium = medium?;
         self.sb
             .camera_medium(medium)
             .map_err(|e| obj.error(e.to_string()))?;
@@ -638,16 +661,17 @@ impl Builder<'_> {
             (None, None) if role == "sensor" => role.to_string(),
             (None, None) => obj.plugin_type.clone(),
         };
-        // The suffix to try next for each name, so that a scene of many
-        // unnamed spheres takes one look per sphere, not one per sphere
-        // named before it.
+        let own_id = |key: &str| obj.id.as_deref() == Some(key);
+        let free =
+            |b: &Self, key: &str| !b.keys.contains(key) && (own_id(key) || !b.ids.contains(key));
         let mut key = base.clone();
-        while self.keys.contains_key(&key) {
-            let n = self.keys.get_mut(&base).expect("the base is taken");
-            *n += 1;
+        let mut n = self.suffixes.get(&base).copied().unwrap_or(0);
+        while !free(self, &key) {
+            n += 1;
             key = format!("{base}_{n}");
         }
-        self.keys.insert(key.clone(), 0);
+        self.suffixes.insert(base, n);
+        self.keys.insert(key.clone());
         key
     }
 

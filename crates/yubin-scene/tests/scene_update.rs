@@ -307,3 +307,39 @@ fn a_bad_update_names_the_key_and_leaves_the_scene_unchanged() {
     assert_eq!(s.scene.parameters(), params);
     assert!(image(&s) == before, "the scene is unchanged");
 }
+
+#[test]
+fn an_id_keeps_its_key_whatever_comes_before_it() {
+    let xml = r#"<scene version="3.0.0">
+        <shape type="sphere"><float name="radius" value="0.5"/></shape>
+        <shape type="sphere" id="sphere"><float name="radius" value="2"/></shape>
+        <shape type="sphere"/>
+    </scene>"#;
+    let s = load_text(xml);
+    let radius = |key: &str| {
+        let params = s.scene.parameters();
+        let p = params.iter().find(|p| p.key == key).cloned();
+        p.unwrap_or_else(|| panic!("{key} in {params:#?}")).value
+    };
+    assert_eq!(radius("sphere.radius"), Some(ParamValue::Float(2.0)));
+    assert_eq!(radius("sphere_1.radius"), Some(ParamValue::Float(0.5)));
+    assert_eq!(radius("sphere_2.radius"), None);
+}
+
+#[test]
+fn editing_a_rough_plastic_many_times_keeps_its_tables_few() {
+    let xml = r#"<scene version="3.0.0">
+        <shape type="sphere"><bsdf type="roughplastic" id="p"/></shape>
+    </scene>"#;
+    let mut s = load_text(xml);
+    for i in 1..=20 {
+        let alpha = ParamValue::Float(0.01 * i as f32);
+        s.scene.update("p.alpha.value", alpha).unwrap();
+    }
+    let m = &s.scene.materials;
+    assert!(
+        m.rough_transmittance.len() <= 2 * m.bsdfs.len(),
+        "{}",
+        m.rough_transmittance.len()
+    );
+}

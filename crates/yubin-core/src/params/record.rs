@@ -112,7 +112,7 @@ impl ParamKind {
             ParamKind::Point => "a point",
             ParamKind::Vector => "a vector",
             ParamKind::Transform => "a transform",
-            ParamKind::Color(_) | ParamKind::Texture(_) => "a colour (or a float, for grey)",
+            ParamKind::Color(_) | ParamKind::Texture(_) => "a colour (or a number, for grey)",
         }
     }
 
@@ -130,6 +130,9 @@ impl ParamKind {
             (ParamKind::Transform, V::Transform(m)) => V::Transform(m),
             (ParamKind::Color(_) | ParamKind::Texture(_), V::Color(c)) => V::Color(c),
             (ParamKind::Color(_) | ParamKind::Texture(_), V::Float(v)) => V::Color(Rgb::splat(v)),
+            (ParamKind::Color(_) | ParamKind::Texture(_), V::Integer(v)) => {
+                V::Color(Rgb::splat(v as f32))
+            }
             _ => return None,
         })
     }

@@ -5,7 +5,7 @@
 //! triangle packets out in leaf order, fits the emitters to the scene's
 //! data, and makes the per-BSDF and per-shape tables read at every hit.
 
-use super::parameters::{Editable, Edits, GroupEntry};
+use super::parameters::{EditTarget, Editable, Edits, GroupEntry};
 use super::traversal::{triangle_of_id, Group, Instance, Item, TriangleRun};
 use super::{Scene, ShapeEmitter, ShapeInfo};
 use crate::accel::{Bvh, PrimCost};
@@ -479,6 +479,7 @@ impl SceneBuilder {
     /// is used.
     pub fn build(mut self) -> Result<Scene, BuildError> {
         self.check_bsdf_references()?;
+        self.check_editables()?;
         let camera = self.camera_or_default();
         let placed_emitters = self.place_group_emitters()?;
         let groups = self.build_groups()?;
@@ -528,6 +529,28 @@ impl SceneBuilder {
                         });
                     }
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks that every recorded object's place exists
+    /// ([`SceneBuilder::record`]).
+    fn check_editables(&self) -> Result<(), BuildError> {
+        for e in &self.edits.editables {
+            let (what, index, len) = match e.target {
+                EditTarget::Bsdf(i) => ("bsdf", i, self.materials.bsdfs.len()),
+                EditTarget::Texture(i) => ("texture", i, self.materials.textures.len()),
+                EditTarget::Emitter(i) | EditTarget::AreaEmitter(i) => {
+                    ("emitter", i, self.emitters.len())
+                }
+                EditTarget::Shape(i) => ("shape", i, self.shapes.len()),
+                EditTarget::Instance(i) => ("instance", i, self.instances.len()),
+                EditTarget::Medium(i) => ("medium", i, self.media.len()),
+                EditTarget::Sensor => continue,
+            };
+            if index as usize >= len {
+                return Err(BuildError::BadIndex { what, index });
             }
         }
         Ok(())

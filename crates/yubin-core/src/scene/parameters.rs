@@ -31,11 +31,18 @@
 //! | an analytic shape (`to_world`, radius, …) | the BVH of its group, the top level, the lights |
 //! | an instance's `to_world` | the top-level BVH and the lights |
 //!
+//! Editing a `to_world` forgets the `<lookat>` target it came from, as a
+//! fresh load of a file that gives a `<matrix>` would: a `thinlens` or
+//! `physical` camera that focused there then needs its
+//! `focus_distance`.
+//!
 //! [`Scene::rebuild_counts`] counts BVH builds and meshes added, so a
 //! test can show that an edit rebuilt nothing it did not need to.
 //! Not editable: mesh shapes (their file is not read again; place a mesh
 //! in a `shapegroup` and move its `instance`), file names (images,
-//! grids), which object a reference points to, the sampler's `seed`
+//! grids), which object a reference points to, an edit that changes
+//! which meshes need MikkTSpace tangents (a normal map's
+//! `tangent_space`), the sampler's `seed`
 //! (the render's, not the scene's), and emitting shapes in shape groups
 //! and the instances that place them (each instance holds a copy).
 
@@ -220,7 +227,19 @@ impl Scene {
             EditTarget::Bsdf(i) => {
                 let build = plugin_of(&replay, "bsdf", crate::bsdf::PLUGINS, None)?;
                 let bsdf = build(&mut replay)?;
+                // Whether a shape has MikkTSpace tangents (or a cube is a
+                // mesh) was decided at load from its BSDF.
+                let tangents = self.mikktspace_needs();
+                let old = self.materials.bsdfs[i as usize];
                 self.materials.replace_bsdf(i, bsdf);
+                if self.mikktspace_needs() != tangents {
+                    self.materials.replace_bsdf(i, old);
+                    return Err(ParamError(
+                        "this edit changes which meshes need MikkTSpace tangents, which \
+                         are made at load: load the scene again"
+                            .to_string(),
+                    ));
+                }
                 self.refresh_materials();
             }
             EditTarget::Texture(i) => {
@@ -274,7 +293,10 @@ impl Scene {
                 }
                 let old = std::mem::replace(&mut self.shapes[i as usize], shape);
                 if let Err(e) = self.rebuild_groups_from(group) {
+                    // The group may have been built with the new shape
+                    // before the world failed: build it again as it was.
                     self.shapes[i as usize] = old;
+                    let _ = self.rebuild_groups_from(group);
                     return Err(ParamError(e.to_string()));
                 }
             }
@@ -321,6 +343,12 @@ impl Scene {
         }
         self.groups = groups;
         result
+    }
+
+    /// Per BSDF, whether it reads MikkTSpace tangents.
+    fn mikktspace_needs(&self) -> Vec<bool> {
+        let m = &self.materials;
+        m.bsdfs.iter().map(|b| b.needs_mikktspace(m)).collect()
     }
 
     /// The tables taken from the BSDFs at build: flags, the wide
