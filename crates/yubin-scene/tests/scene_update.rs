@@ -343,3 +343,29 @@ fn editing_a_rough_plastic_many_times_keeps_its_tables_few() {
         m.rough_transmittance.len()
     );
 }
+
+#[test]
+fn a_parameter_left_at_its_default_can_be_set() {
+    let glass = |ior: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+            <sensor type="perspective">
+                <transform name="to_world"><lookat origin="0, 0, -4" target="0, 0, 0" up="0, 1, 0"/></transform>
+                <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+                <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="12"/></film>
+            </sensor>
+            <emitter type="constant"/>
+            <shape type="sphere"><bsdf type="dielectric" id="glass">{ior}</bsdf></shape>
+        </scene>"#
+        )
+    };
+    let mut s = load_text(&glass(""));
+    let params = s.scene.parameters();
+    let ior = params.iter().find(|p| p.key == "glass.int_ior");
+    assert_eq!(ior.map(|p| p.value.clone()), Some(None), "{params:#?}");
+    let before = image(&s);
+    s.scene.update("glass.int_ior", ParamValue::Float(1.8)).unwrap();
+    let fresh = load_text(&glass(r#"<float name="int_ior" value="1.8"/>"#));
+    assert!(image(&s) != before, "the edit changes the image");
+    assert!(image(&s) == image(&fresh));
+}

@@ -82,29 +82,26 @@ pub fn dielectric_ior(name: &str) -> Option<f32> {
 /// a float, or a name from [`DIELECTRIC_NAMES`] (or a number written as a
 /// string); `default` (a name) when absent. It must be positive.
 pub fn ior_from_params(p: &mut dyn Params, name: &str, default: &str) -> Result<f32, ParamError> {
-    let v = if !p.has(name) {
-        dielectric_ior(default).ok_or_else(|| p.param_error(name, "bad default"))?
-    } else {
-        match p.float(name) {
-            Ok(Some(v)) => v,
-            // Not a number: a material's name.
-            not_float => {
-                let Ok(Some(s)) = p.string(name) else {
-                    return Err(not_float
-                        .err()
-                        .unwrap_or_else(|| p.param_error(name, "must be a number or a name")));
-                };
-                match (s.trim().parse::<f32>(), dielectric_ior(s.trim())) {
-                    (Ok(v), _) | (_, Some(v)) => v,
-                    _ => {
-                        return Err(p.param_error(
-                            name,
-                            &format!(
-                                "unknown material \"{s}\" (known: {}; or give a number)",
-                                DIELECTRIC_NAMES.join(", ")
-                            ),
-                        ))
-                    }
+    // Asked for as a float even when absent, so that a scene's parameters
+    // list it (with its default) and an update can set it.
+    let v = match p.float(name) {
+        Ok(Some(v)) => v,
+        Ok(None) => dielectric_ior(default).ok_or_else(|| p.param_error(name, "bad default"))?,
+        // Not a number: a material's name.
+        Err(not_float) => {
+            let Ok(Some(s)) = p.string(name) else {
+                return Err(not_float);
+            };
+            match (s.trim().parse::<f32>(), dielectric_ior(s.trim())) {
+                (Ok(v), _) | (_, Some(v)) => v,
+                _ => {
+                    return Err(p.param_error(
+                        name,
+                        &format!(
+                            "unknown material \"{s}\" (known: {}; or give a number)",
+                            DIELECTRIC_NAMES.join(", ")
+                        ),
+                    ))
                 }
             }
         }
