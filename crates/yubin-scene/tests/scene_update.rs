@@ -364,7 +364,9 @@ fn a_parameter_left_at_its_default_can_be_set() {
     let ior = params.iter().find(|p| p.key == "glass.int_ior");
     assert_eq!(ior.map(|p| p.value.clone()), Some(None), "{params:#?}");
     let before = image(&s);
-    s.scene.update("glass.int_ior", ParamValue::Float(1.8)).unwrap();
+    s.scene
+        .update("glass.int_ior", ParamValue::Float(1.8))
+        .unwrap();
     let fresh = load_text(&glass(r#"<float name="int_ior" value="1.8"/>"#));
     assert!(image(&s) != before, "the edit changes the image");
     assert!(image(&s) == image(&fresh));
