@@ -247,19 +247,12 @@ pub struct Record {
     /// The other answers, which few plugins ask for (one list rather than
     /// one per kind keeps a record small).
     other: Vec<Other>,
-    /// The plugin read a mesh file, which a replay cannot do.
-    read_mesh: bool,
 }
 
 impl Record {
     /// The plugin type the record was made for (`roughconductor`).
     pub fn plugin_type(&self) -> &str {
         &self.plugin_type
-    }
-
-    /// Whether the plugin read a mesh file (a replay would fail).
-    pub fn read_mesh(&self) -> bool {
-        self.read_mesh
     }
 
     /// Every editable parameter under `prefix` (`red` gives
@@ -392,6 +385,13 @@ impl Record {
         })
     }
 
+    /// Records `entry`; a parameter read again through the same getter
+    /// keeps its last answer.
+    fn add(&mut self, entry: Entry) {
+        (self.entries).retain(|e| !(e.name == entry.name && same_getter(e.kind, entry.kind)));
+        self.entries.push(entry);
+    }
+
     fn entry(&self, name: &str, kind: ParamKind) -> Option<&Entry> {
         (self.entries.iter()).find(|e| e.name == name && same_getter(e.kind, kind))
     }
@@ -480,12 +480,10 @@ impl<'a> Recorder<'a> {
         wrap: impl FnOnce(&T) -> ParamValue,
     ) -> Result<Option<T>, ParamError> {
         let v = get(self.inner.get())?;
-        let value = v.as_ref().map(|v| wrap(v).into());
-        self.record.entries.retain(|e| e.name != name);
-        self.record.entries.push(Entry {
+        self.record.add(Entry {
             name: name.to_string(),
             kind,
-            value,
+            value: v.as_ref().map(|v| wrap(v).into()),
         });
         Ok(v)
     }
@@ -653,7 +651,7 @@ impl Params for Recorder<'_> {
             Some(tex @ Tex::Texture(_)) => {
                 (self.record.other).push(Other::Texture(name.to_string(), tex));
             }
-            _ => self.record.entries.push(Entry {
+            _ => self.record.add(Entry {
                 name: name.to_string(),
                 kind: ParamKind::Texture(kind),
                 value: t.map(|t| match t {
@@ -680,7 +678,8 @@ impl Params for Recorder<'_> {
         Ok(i)
     }
     fn mesh_file(&mut self) -> Result<crate::shape::MeshData, ParamError> {
-        self.record.read_mesh = true;
+        // Not recorded: a replay reads no file (mesh shapes are not
+        // editable).
         self.inner.get().mesh_file()
     }
     fn attribute_index(&mut self, attribute: &str) -> Result<u32, ParamError> {

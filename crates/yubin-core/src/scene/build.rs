@@ -76,7 +76,6 @@ pub struct SceneBuilder {
     emitters: Vec<Emitter>,
     emitter_options: Vec<EmitterOptions>,
     uv_unread_by_integrator: bool,
-    groups: Vec<Vec<Item>>,
     instances: Vec<Instance>,
     group_emitters: Vec<GroupEmitter>,
     camera: Option<Camera>,
@@ -117,7 +116,6 @@ impl SceneBuilder {
             emitters: Vec::new(),
             emitter_options: Vec::new(),
             uv_unread_by_integrator: false,
-            groups: vec![Vec::new()],
             instances: Vec::new(),
             group_emitters: Vec::new(),
             camera: None,
@@ -205,8 +203,7 @@ impl SceneBuilder {
 
     /// Creates an empty shape group; returns its index.
     pub fn add_group(&mut self) -> u32 {
-        self.groups.push(Vec::new());
-        self.groups.len() as u32 - 1
+        self.edits.add_group()
     }
 
     /// Adds a shape to the world with a BSDF (or the default diffuse when
@@ -243,7 +240,7 @@ impl SceneBuilder {
         let radiance = emitter.map(|e| match e {
             ShapeEmitter::Area(t) | ShapeEmitter::DirectionalArea(t) => t,
         });
-        if group as usize >= self.groups.len() {
+        if group >= self.edits.group_count() {
             return Err(BuildError::BadIndex {
                 what: "shape group",
                 index: group,
@@ -301,14 +298,13 @@ impl SceneBuilder {
             exterior: None,
         });
         let entry = GroupEntry::Shape { shape: id, prims };
-        entry.push_items(&self.shapes, &mut self.groups[group as usize]);
         self.edits.add_to_group(group, entry);
         Ok(id)
     }
 
     /// Places group `group` in the world with `to_world`.
     pub fn add_instance(&mut self, group: u32, to_world: Transform) -> Result<u32, BuildError> {
-        if group == 0 || group as usize >= self.groups.len() {
+        if group == 0 || group >= self.edits.group_count() {
             return Err(BuildError::BadIndex {
                 what: "shape group",
                 index: group,
@@ -328,7 +324,6 @@ impl SceneBuilder {
             placed_emitters: (0, 0),
         });
         let index = self.instances.len() as u32 - 1;
-        self.groups[0].push(Item::Instance(index));
         self.edits.add_to_group(0, GroupEntry::Instance(index));
         Ok(index)
     }
@@ -484,7 +479,7 @@ impl SceneBuilder {
         let placed_emitters = self.place_group_emitters()?;
         let groups = self.build_groups()?;
         self.prepare_emitters()?;
-        let environment_emitters = self.environment_emitters();
+        let environment_emitters = environment_emitters(&self.emitters);
         let bsdf_flags: Vec<_> = (self.materials.bsdfs.iter())
             .map(|b| b.flags(&self.materials))
             .collect();
@@ -576,9 +571,8 @@ impl SceneBuilder {
     /// triangles in packets. The shape groups are built first and the
     /// world last: instance bounds need the BVHs of their groups.
     fn build_groups(&mut self) -> Result<Vec<Group>, BuildError> {
-        let mut groups: Vec<Group> = std::mem::take(&mut self.groups)
-            .into_iter()
-            .map(unbuilt_group)
+        let mut groups: Vec<Group> = (0..self.edits.group_count() as usize)
+            .map(|gi| unbuilt_group(self.edits.group_items(gi, &self.shapes)))
             .collect();
         let geometry = Geometry {
             shapes: &self.shapes,
@@ -603,16 +597,6 @@ impl SceneBuilder {
         })
     }
 
-    /// Indices of the emitters at infinity.
-    fn environment_emitters(&self) -> Vec<u32> {
-        self.emitters
-            .iter()
-            .enumerate()
-            .filter(|(_, e)| e.is_environment())
-            .map(|(i, _)| i as u32)
-            .collect()
-    }
-
     /// Whether some shape's BSDF lets light through (`null`, `mask`; by
     /// `bsdf_flags`, per BSDF), and whether some shape lets light
     /// straight through with `thindielectric` slabs counted.
@@ -625,6 +609,14 @@ impl SceneBuilder {
     fn free_frames(&self, uv_unread: bool) -> Vec<bool> {
         free_frames(&self.shape_info, &self.materials, uv_unread)
     }
+}
+
+/// Indices of the emitters at infinity.
+pub(super) fn environment_emitters(emitters: &[Emitter]) -> Vec<u32> {
+    (emitters.iter().enumerate())
+        .filter(|(_, e)| e.is_environment())
+        .map(|(i, _)| i as u32)
+        .collect()
 }
 
 /// Whether some shape's BSDF lets light through (`null`, `mask`; by

@@ -46,7 +46,10 @@
 //! (the render's, not the scene's), and emitting shapes in shape groups
 //! and the instances that place them (each instance holds a copy).
 
-use super::build::{build_group, free_frames, pass_through, unbuilt_group, BuildError, Geometry};
+use super::build::{
+    build_group, environment_emitters, free_frames, pass_through, unbuilt_group, BuildError,
+    Geometry,
+};
 use super::traversal::Item;
 use super::Scene;
 use crate::bsdf::BsdfModel;
@@ -113,7 +116,7 @@ pub(super) enum GroupEntry {
 
 impl GroupEntry {
     /// Appends the entry's BVH items to `out`.
-    pub(super) fn push_items(self, shapes: &[Shape], out: &mut Vec<Item>) {
+    fn push_items(self, shapes: &[Shape], out: &mut Vec<Item>) {
         match self {
             GroupEntry::Shape { shape, prims } => {
                 let is_mesh = matches!(shapes[shape as usize], Shape::Mesh(_));
@@ -130,7 +133,8 @@ impl GroupEntry {
     }
 }
 
-/// What a scene keeps so that it can be updated.
+/// What a scene keeps so that it can be updated, and the builder's
+/// record of what each group holds.
 #[derive(Clone, Debug)]
 pub(super) struct Edits {
     pub(super) editables: Vec<Editable>,
@@ -148,12 +152,29 @@ impl Edits {
         }
     }
 
+    /// Adds an empty shape group; returns its index.
+    pub(super) fn add_group(&mut self) -> u32 {
+        self.group_entries.push(Vec::new());
+        self.group_entries.len() as u32 - 1
+    }
+
+    /// How many groups there are, the world's included.
+    pub(super) fn group_count(&self) -> u32 {
+        self.group_entries.len() as u32
+    }
+
+    /// Adds `entry` to group `group` (which exists).
     pub(super) fn add_to_group(&mut self, group: u32, entry: GroupEntry) {
-        let g = group as usize;
-        if self.group_entries.len() <= g {
-            self.group_entries.resize(g + 1, Vec::new());
+        self.group_entries[group as usize].push(entry);
+    }
+
+    /// The BVH items of group `gi`, in the order they were added.
+    pub(super) fn group_items(&self, gi: usize, shapes: &[Shape]) -> Vec<Item> {
+        let mut items = Vec::new();
+        for entry in &self.group_entries[gi] {
+            entry.push_items(shapes, &mut items);
         }
-        self.group_entries[g].push(entry);
+        items
     }
 
     /// The group holding shape `shape`.
@@ -255,7 +276,7 @@ impl Scene {
                 let emitter = self.prepared(build(&mut replay)?)?;
                 self.emitters[i as usize] = emitter;
                 self.emitter_options[i as usize] = options;
-                self.refresh_environment();
+                self.environment_emitters = environment_emitters(&self.emitters);
             }
             EditTarget::AreaEmitter(i) => {
                 let radiance = replay.texture_or("radiance", ColorKind::Illuminant, Rgb::ONE)?;
@@ -324,10 +345,7 @@ impl Scene {
         let mut groups = std::mem::take(&mut self.groups);
         let mut result = Ok(());
         for gi in std::iter::once(group).chain((group != 0).then_some(0)) {
-            let mut items = Vec::new();
-            for entry in &self.edits.group_entries[gi] {
-                entry.push_items(&self.shapes, &mut items);
-            }
+            let items = self.edits.group_items(gi, &self.shapes);
             let old = std::mem::replace(&mut groups[gi], unbuilt_group(items));
             let geometry = Geometry {
                 shapes: &self.shapes,
@@ -369,13 +387,5 @@ impl Scene {
         crate::light::prepare_emitters(&mut one, &self.materials)
             .map_err(|index| ParamError(format!("no image {index} in the scene")))?;
         Ok(one[0])
-    }
-
-    /// The list of emitters at infinity.
-    fn refresh_environment(&mut self) {
-        self.environment_emitters = (self.emitters.iter().enumerate())
-            .filter(|(_, e)| e.is_environment())
-            .map(|(i, _)| i as u32)
-            .collect();
     }
 }
