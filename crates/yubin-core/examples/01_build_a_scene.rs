@@ -5,7 +5,7 @@
 //! Run: `cargo run --release -p yubin-core --example 01_build_a_scene`.
 
 use std::f32::consts::FRAC_PI_2;
-use yubin_core::bsdf::{Bsdf, Diffuse};
+use yubin_core::bsdf::{Diffuse, Material};
 use yubin_core::camera::{Camera, FovAxis, Perspective};
 use yubin_core::film::Film;
 use yubin_core::filter::Filter;
@@ -19,8 +19,8 @@ use yubin_core::{Affine3A, Rgb, SceneBuilder, Vec3};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut sb = SceneBuilder::new();
-    let grey = sb.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(0.7))));
-    let red = sb.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::new(0.8, 0.1, 0.1))));
+    let grey = sb.add_bsdf(Material::Diffuse(Diffuse::new(Rgb::splat(0.7))));
+    let red = sb.add_bsdf(Material::Diffuse(Diffuse::new(Rgb::new(0.8, 0.1, 0.1))));
 
     // A 20×20 floor: the rectangle [-1, 1]² facing +z, turned to face +y.
     let floor = Affine3A::from_rotation_x(-FRAC_PI_2) * Affine3A::from_scale(Vec3::splat(10.0));

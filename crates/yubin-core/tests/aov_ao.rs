@@ -4,7 +4,7 @@
 //! its closed form.
 
 use glam::{Affine3A, Vec2, Vec3};
-use yubin_core::bsdf::{Bsdf, Diffuse, Plastic, TwoSided};
+use yubin_core::bsdf::{Diffuse, Material, Plastic, TwoSided};
 use yubin_core::camera::{Camera, FovAxis, Perspective};
 use yubin_core::film::Film;
 use yubin_core::filter::Filter;
@@ -41,7 +41,7 @@ fn look_down(b: &mut SceneBuilder, res: u32, spp: u32) {
 /// camera at height `HEIGHT` looking straight down.
 fn scene(plane: bool, sphere: Option<(Vec3, f32)>) -> Scene {
     let mut b = SceneBuilder::new();
-    let grey = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::new(0.2, 0.4, 0.6))));
+    let grey = b.add_bsdf(Material::Diffuse(Diffuse::new(Rgb::new(0.2, 0.4, 0.6))));
     if plane {
         let big = Transform::new(Affine3A::from_scale(Vec3::splat(50.0))).unwrap();
         b.add_shape(
@@ -138,9 +138,9 @@ fn aov_albedo_is_the_diffuse_parameter_as_in_mitsuba() {
     let rho = Rgb::new(0.5, 0.5, 0.12);
     for two_sided in [false, true] {
         let mut b = SceneBuilder::new();
-        let plastic = b.add_bsdf(Bsdf::Plastic(Plastic::new(rho, 1.9, false)));
+        let plastic = b.add_bsdf(Material::Plastic(Plastic::new(rho, 1.9, false)));
         let bsdf = if two_sided {
-            b.add_bsdf(Bsdf::TwoSided(TwoSided {
+            b.add_bsdf(Material::TwoSided(TwoSided {
                 front: plastic,
                 back: plastic,
             }))
@@ -264,7 +264,7 @@ fn aov_images_do_not_depend_on_thread_count() {
 /// origin, for ambient occlusion at the origin.
 fn disc_scene(radius: f32, h: f32) -> Scene {
     let mut b = SceneBuilder::new();
-    let grey = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(0.5))));
+    let grey = b.add_bsdf(Material::Diffuse(Diffuse::new(Rgb::splat(0.5))));
     let floor = Transform::new(Affine3A::from_scale(Vec3::splat(20.0))).unwrap();
     b.add_shape(
         Shape::Rectangle(Rectangle::new(floor, false)),

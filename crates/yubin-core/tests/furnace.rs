@@ -6,7 +6,7 @@
 //! path depth and an albedo-ρ sphere renders exactly ρ.
 
 use glam::{Affine3A, Vec3};
-use yubin_core::bsdf::{Bsdf, DiffTrans, Diffuse, PrincipledThin};
+use yubin_core::bsdf::{DiffTrans, Diffuse, Material, PrincipledThin};
 use yubin_core::camera::{Camera, FovAxis, Perspective};
 use yubin_core::film::Film;
 use yubin_core::filter::Filter;
@@ -21,11 +21,11 @@ use yubin_core::{Rgb, Scene, SceneBuilder};
 const RES: u32 = 16;
 
 fn furnace(albedo: f32) -> Scene {
-    furnace_with(Bsdf::Diffuse(Diffuse::new(Rgb::splat(albedo))))
+    furnace_with(Material::Diffuse(Diffuse::new(Rgb::splat(albedo))))
 }
 
 /// A unit sphere of `bsdf` inside a white environment, seen by a camera.
-fn furnace_with(bsdf: Bsdf) -> Scene {
+fn furnace_with(bsdf: Material) -> Scene {
     let mut b = SceneBuilder::new();
     let bsdf = b.add_bsdf(bsdf);
     b.add_shape(
@@ -172,10 +172,10 @@ fn furnace_can_fail() {
 #[test]
 fn transmitting_lossless_bsdfs_vanish_in_a_white_furnace() {
     let cases = [
-        ("difftrans 1", Bsdf::DiffTrans(DiffTrans::new(Rgb::ONE))),
+        ("difftrans 1", Material::DiffTrans(DiffTrans::new(Rgb::ONE))),
         (
             "principledthin, diff_trans 2, white",
-            Bsdf::PrincipledThin(PrincipledThin {
+            Material::PrincipledThin(PrincipledThin {
                 diff_trans: Tex::value(2.0),
                 ..PrincipledThin::new(Rgb::ONE)
             }),

@@ -8,7 +8,7 @@
 //! between light and floor that the camera does not see.
 
 use glam::{Affine3A, Vec3};
-use yubin_core::bsdf::{Bsdf, Diffuse, Mask, Null};
+use yubin_core::bsdf::{Diffuse, Mask, Material, Null};
 use yubin_core::camera::{Camera, FovAxis, Perspective};
 use yubin_core::film::Film;
 use yubin_core::filter::Filter;
@@ -39,7 +39,7 @@ enum Light {
 /// Mean radiance of the floor seen from above.
 fn render_mean(sheet: Sheet, light: Light, max_depth: i32, spp: u32) -> f32 {
     let mut b = SceneBuilder::new();
-    let floor = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(0.5))));
+    let floor = b.add_bsdf(Material::Diffuse(Diffuse::new(Rgb::splat(0.5))));
     // The floor: the rectangle [-1, 1]² at z = 0, facing +z.
     let big = Transform::new(Affine3A::from_scale(Vec3::splat(4.0))).unwrap();
     b.add_shape(
@@ -50,10 +50,10 @@ fn render_mean(sheet: Sheet, light: Light, max_depth: i32, spp: u32) -> f32 {
     .unwrap();
     let sheet_bsdf = match sheet {
         Sheet::None => None,
-        Sheet::Null => Some(b.add_bsdf(Bsdf::Null(Null))),
+        Sheet::Null => Some(b.add_bsdf(Material::Null(Null))),
         Sheet::Mask(alpha) => {
-            let black = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::ZERO)));
-            Some(b.add_bsdf(Bsdf::Mask(Mask {
+            let black = b.add_bsdf(Material::Diffuse(Diffuse::new(Rgb::ZERO)));
+            Some(b.add_bsdf(Material::Mask(Mask {
                 opacity: Tex::value(alpha),
                 nested: black,
             })))

@@ -21,7 +21,7 @@ use crate::params::{to_param, ObjParams};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
-use yubin_core::bsdf::Bsdf;
+use yubin_core::bsdf::Material;
 use yubin_core::camera::Sensor;
 use yubin_core::integrator::{Integrator, PathIntegrator};
 use yubin_core::light::EmitterOptions;
@@ -297,6 +297,9 @@ impl Builder<'_> {
         let (bsdf, editable) = self.recorded(obj, "bsdf", build)?;
         let reads = self.reading.pop().unwrap_or_default();
         let id = self.sb.add_bsdf(bsdf);
+        self.sb
+            .check_composite_size(id)
+            .map_err(|e| SceneError::at(&obj.loc, e.to_string()))?;
         self.sb.record(editable.of(EditTarget::Bsdf(id)));
         self.bsdfs.insert(key, id);
         if !reads.is_empty() {
@@ -352,7 +355,7 @@ impl Builder<'_> {
     }
 
     /// The BSDF built at index `id`.
-    pub(crate) fn built_bsdf(&self, id: u32) -> Bsdf {
+    pub(crate) fn built_bsdf(&self, id: u32) -> Material {
         *self.sb.bsdf(id).expect("an index the builder returned")
     }
 

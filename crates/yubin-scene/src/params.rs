@@ -9,7 +9,7 @@ use crate::build::Builder;
 use crate::desc::{Category, Object, Spectrum, Value};
 use crate::error::SceneError;
 use glam::{DMat4, Vec3};
-use yubin_core::bsdf::Bsdf;
+use yubin_core::bsdf::Material;
 use yubin_core::params::{ColorKind, Family, NamedChild, ParamError, Params};
 use yubin_core::spectrum::{constant_spectrum_to_rgb, spectrum_to_rgb, Rgb};
 use yubin_core::texture::Tex;
@@ -216,7 +216,7 @@ impl Params for ObjParams<'_, '_, '_> {
             .collect()
     }
 
-    fn bsdfs(&mut self) -> Result<Vec<(u32, Bsdf)>, ParamError> {
+    fn bsdfs(&mut self) -> Result<Vec<(u32, Material)>, ParamError> {
         let kids: Vec<_> = self
             .obj
             .children_of(Category::Bsdf)

@@ -30,7 +30,8 @@
 //! `roughconductor` of α 0.001 Mitsuba's render and yubin's of the
 //! original pass the Z-test (`mitsuba-ref ztest --yubin-scene`).
 
-use super::{Bsdf, BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::value::Tree;
+use super::{BsdfContext, BsdfFlags, BsdfSample, Material};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -70,44 +71,61 @@ impl BlendBsdf {
         }
     }
 
+    /// The weight of the second BSDF at `si`.
     #[inline]
-    fn w(&self, m: &Materials, si: &SurfaceInteraction) -> f32 {
+    pub(super) fn w(&self, m: &Materials, si: &SurfaceInteraction) -> f32 {
         self.weight.eval_1(m, si).clamp(0.0, 1.0)
     }
 
-    fn part<'m>(&self, m: &'m Materials, i: usize) -> &'m Bsdf {
+    fn part<'m>(&self, m: &'m Materials, i: usize) -> &'m Material {
         &m.bsdfs[self.bsdfs[i] as usize]
     }
 }
 
-impl BsdfModel for BlendBsdf {
-    fn flags(&self, m: &Materials) -> BsdfFlags {
+impl BlendBsdf {
+    /// Lobes this material has.
+    pub fn flags(&self, m: &Materials) -> BsdfFlags {
         self.part(m, 0).flags(m) | self.part(m, 1).flags(m)
     }
+}
 
-    fn sample(
+/// A [`BlendBsdf`] at a vertex: its weight there and its two parts.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BlendNode {
+    w: f32,
+    parts: [u8; 2],
+}
+
+impl BlendNode {
+    /// Weight `w` of the second of `parts`.
+    pub(super) fn new(w: f32, parts: [u8; 2]) -> Self {
+        Self { w, parts }
+    }
+
+    /// A sample of one part, picked with probability 1 − w or w, weighed
+    /// by the whole blend (delta lobes by the part's density alone).
+    pub(super) fn sample(
         &self,
-        m: &Materials,
+        t: &Tree,
         ctx: &BsdfContext,
-        si: &SurfaceInteraction,
         wo: Vec3,
         u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample> {
-        let w = self.w(m, si);
+        let w = self.w;
         let (i, prob, u1) = if u1 < 1.0 - w {
             (0, 1.0 - w, u1 / (1.0 - w))
         } else {
             (1, w, ((u1 - (1.0 - w)) / w).min(1.0 - f32::EPSILON))
         };
-        let s = self.part(m, i).sample(m, ctx, si, wo, u1, u2)?;
+        let s = t.sample(self.parts[i], ctx, wo, u1, u2)?;
         if s.sampled.intersects(BsdfFlags::DELTA) {
             return Some(BsdfSample {
                 pdf: s.pdf * prob,
                 ..s
             });
         }
-        let (value, pdf) = self.eval_pdf(m, ctx, si, wo, s.wi);
+        let (value, pdf) = self.eval_pdf(t, ctx, wo, s.wi);
         (pdf > 0.0).then(|| BsdfSample {
             pdf,
             weight: value / pdf,
@@ -115,43 +133,20 @@ impl BsdfModel for BlendBsdf {
         })
     }
 
-    fn eval(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
-        let w = self.w(m, si);
-        self.part(m, 0).eval(m, ctx, si, wo, wi) * (1.0 - w)
-            + self.part(m, 1).eval(m, ctx, si, wo, wi) * w
+    pub(super) fn eval(&self, t: &Tree, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
+        let w = self.w;
+        t.eval(self.parts[0], ctx, wo, wi) * (1.0 - w) + t.eval(self.parts[1], ctx, wo, wi) * w
     }
 
-    fn pdf(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
-        let w = self.w(m, si);
-        self.part(m, 0).pdf(m, ctx, si, wo, wi) * (1.0 - w)
-            + self.part(m, 1).pdf(m, ctx, si, wo, wi) * w
+    pub(super) fn pdf(&self, t: &Tree, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
+        let w = self.w;
+        t.pdf(self.parts[0], ctx, wo, wi) * (1.0 - w) + t.pdf(self.parts[1], ctx, wo, wi) * w
     }
 
-    fn eval_pdf(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> (Rgb, f32) {
-        let w = self.w(m, si);
-        let (f0, p0) = self.part(m, 0).eval_pdf(m, ctx, si, wo, wi);
-        let (f1, p1) = self.part(m, 1).eval_pdf(m, ctx, si, wo, wi);
+    pub(super) fn eval_pdf(&self, t: &Tree, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        let w = self.w;
+        let (f0, p0) = t.eval_pdf(self.parts[0], ctx, wo, wi);
+        let (f1, p1) = t.eval_pdf(self.parts[1], ctx, wo, wi);
         (f0 * (1.0 - w) + f1 * w, p0 * (1.0 - w) + p1 * w)
     }
 }
@@ -168,9 +163,9 @@ pub(crate) mod tests {
             Variant::last(
                 format!("blendbsdf (two diffuse, w {w})"),
                 vec![
-                    Bsdf::Diffuse(Diffuse::new(Rgb::new(0.9, 0.1, 0.1))),
-                    Bsdf::Diffuse(Diffuse::new(Rgb::new(0.1, 0.1, 0.9))),
-                    Bsdf::BlendBsdf(BlendBsdf {
+                    Material::Diffuse(Diffuse::new(Rgb::new(0.9, 0.1, 0.1))),
+                    Material::Diffuse(Diffuse::new(Rgb::new(0.1, 0.1, 0.9))),
+                    Material::BlendBsdf(BlendBsdf {
                         weight: Tex::value(w),
                         bsdfs: [0, 1],
                     }),
@@ -180,9 +175,9 @@ pub(crate) mod tests {
         let mut with_null = Variant::last(
             "blendbsdf (white diffuse and null)",
             vec![
-                Bsdf::Diffuse(Diffuse::new(Rgb::ONE)),
-                Bsdf::Null(Null),
-                Bsdf::BlendBsdf(BlendBsdf {
+                Material::Diffuse(Diffuse::new(Rgb::ONE)),
+                Material::Null(Null),
+                Material::BlendBsdf(BlendBsdf {
                     weight: Tex::value(0.4),
                     bsdfs: [0, 1],
                 }),

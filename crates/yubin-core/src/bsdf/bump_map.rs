@@ -28,7 +28,8 @@
 //! surface mirrors the perturbation (see `perturbed.rs`). Mitsuba 3's
 //! `bumpmap`.
 
-use super::perturbed::{self, Perturbation};
+use super::perturbed::Perturbation;
+use super::BsdfFlags;
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ParamError, Params};
@@ -77,7 +78,7 @@ impl BumpMap {
 
     /// The perturbed normal in the coordinates of the shading frame.
     #[inline]
-    fn perturbation(&self, m: &Materials, si: &SurfaceInteraction) -> Perturbation {
+    pub(super) fn perturbation(&self, m: &Materials, si: &SurfaceInteraction) -> Perturbation {
         let (_, grad) = Tex::Texture(self.height).eval_1_grad(m, si);
         let grad = grad * self.scale;
         let n = si.sh_frame.n;
@@ -99,14 +100,19 @@ impl BumpMap {
     }
 }
 
-perturbed::perturbed_bsdf!(BumpMap);
+impl BumpMap {
+    /// Lobes this material has: the nested BSDF's.
+    pub fn flags(&self, m: &Materials) -> BsdfFlags {
+        m.bsdfs[self.nested as usize].flags(m)
+    }
+}
 
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{flat_si, Variant};
-    use crate::bsdf::Bsdf;
     use crate::bsdf::Diffuse;
+    use crate::bsdf::Material;
     use crate::texture::image::ImageData;
     use crate::texture::{Bitmap, FilterType, TexImage, Texture, WrapMode};
     use crate::Rgb;
@@ -116,8 +122,8 @@ pub(crate) mod tests {
         let mut v = Variant::last(
             format!("bumpmap (ramp {slope})"),
             vec![
-                Bsdf::Diffuse(Diffuse::new(Rgb::new(0.6, 0.6, 0.6))),
-                Bsdf::BumpMap(BumpMap {
+                Material::Diffuse(Diffuse::new(Rgb::new(0.6, 0.6, 0.6))),
+                Material::BumpMap(BumpMap {
                     height: 0,
                     scale: slope,
                     nested: 0,
@@ -150,7 +156,7 @@ pub(crate) mod tests {
         // towards +x, so its normal leans towards -x.
         let v = ramp(1.0);
         let b = match v.m.bsdfs[1] {
-            Bsdf::BumpMap(b) => b,
+            Material::BumpMap(b) => b,
             _ => unreachable!(),
         };
         let f = b.perturbation(&v.m, &flat_si());

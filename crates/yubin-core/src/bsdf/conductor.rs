@@ -24,7 +24,7 @@
 //! conductors) and §9.4 (`ConductorBxDF` with zero roughness).
 
 use super::fresnel::{fresnel_conductor, reflect};
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -132,48 +132,54 @@ impl Conductor {
     }
 }
 
-impl BsdfModel for Conductor {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+impl Conductor {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::DELTA_REFLECTION | BsdfFlags::FRONT_SIDE
     }
 
+    /// The lobe at `si`.
     #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        _: f32,
-        _: Vec2,
-    ) -> Option<BsdfSample> {
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> ConductorLobe {
+        ConductorLobe {
+            ior: self.ior.eval(m, si),
+            specular_reflectance: self.specular_reflectance.eval(m, si),
+        }
+    }
+}
+
+/// [`Conductor`] at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConductorLobe {
+    /// (η, k) of the complex index.
+    pub ior: (Rgb, Rgb),
+    /// Factor on the reflectance.
+    pub specular_reflectance: Rgb,
+}
+
+impl Scatter for ConductorLobe {
+    #[inline]
+    fn sample(&self, _: &BsdfContext, wo: Vec3, _: f32, _: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
-        let (eta, k) = self.ior.eval(m, si);
+        let (eta, k) = self.ior;
         Some(BsdfSample {
             wi: reflect(wo),
             pdf: 1.0,
             eta: 1.0,
             sampled: BsdfFlags::DELTA_REFLECTION,
-            weight: self.specular_reflectance.eval(m, si) * fresnel_conductor(wo.z, eta, k),
+            weight: self.specular_reflectance * fresnel_conductor(wo.z, eta, k),
         })
     }
 
     #[inline]
-    fn eval(
-        &self,
-        _: &Materials,
-        _: &BsdfContext,
-        _: &SurfaceInteraction,
-        _: Vec3,
-        _: Vec3,
-    ) -> Rgb {
+    fn eval(&self, _: &BsdfContext, _: Vec3, _: Vec3) -> Rgb {
         Rgb::ZERO
     }
 
     #[inline]
-    fn pdf(&self, _: &Materials, _: &BsdfContext, _: &SurfaceInteraction, _: Vec3, _: Vec3) -> f32 {
+    fn pdf(&self, _: &BsdfContext, _: Vec3, _: Vec3) -> f32 {
         0.0
     }
 }
@@ -183,7 +189,8 @@ pub(crate) mod tests {
     use super::*;
     use crate::bsdf::microfacet::tests::MapParams;
     use crate::bsdf::tests::{albedo, flat_si, Variant};
-    use crate::bsdf::Bsdf;
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::Material;
 
     const AU_ETA: Rgb = Rgb::new(0.143, 0.374, 1.442);
     const AU_K: Rgb = Rgb::new(3.983, 2.385, 1.603);
@@ -213,7 +220,7 @@ pub(crate) mod tests {
                 Rgb::new(0.964_172_7, 0.881_190_7, 0.606_459_1),
             ),
         ];
-        let t = Materials::with_bsdfs(vec![Bsdf::Conductor(Conductor::new(AU_ETA, AU_K))]);
+        let t = Materials::with_bsdfs(vec![Material::Conductor(Conductor::new(AU_ETA, AU_K))]);
         for (wo, expected) in cases {
             let wo = wo.normalize();
             let s = t.bsdfs[0]
@@ -241,7 +248,7 @@ pub(crate) mod tests {
 
     #[test]
     fn mirror_reflects_everything_from_the_front_only() {
-        let t = Materials::with_bsdfs(vec![Bsdf::Conductor(Conductor::default())]);
+        let t = Materials::with_bsdfs(vec![Material::Conductor(Conductor::default())]);
         let a = albedo(&t, 0, Vec3::new(0.7, 0.1, 0.2).normalize());
         assert_eq!(a, Rgb::ONE);
         let ctx = BsdfContext::default();
@@ -291,13 +298,13 @@ pub(crate) mod tests {
     pub(crate) fn test_variants() -> Vec<Variant> {
         let mut mirror = Variant::last(
             "conductor (material none)",
-            vec![Bsdf::Conductor(Conductor::default())],
+            vec![Material::Conductor(Conductor::default())],
         );
         mirror.lossless = true;
         let textured = {
             let mut v = Variant::last(
                 "conductor (gold, checkerboard specular_reflectance)",
-                vec![Bsdf::Conductor(Conductor {
+                vec![Material::Conductor(Conductor {
                     specular_reflectance: Tex::Texture(0),
                     ..Conductor::new(AU_ETA, AU_K)
                 })],
@@ -315,7 +322,7 @@ pub(crate) mod tests {
             mirror,
             Variant::last(
                 "conductor (gold)",
-                vec![Bsdf::Conductor(Conductor::new(AU_ETA, AU_K))],
+                vec![Material::Conductor(Conductor::new(AU_ETA, AU_K))],
             ),
             textured,
         ]

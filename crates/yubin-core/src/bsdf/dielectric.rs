@@ -19,7 +19,7 @@
 //! </bsdf>
 //! ```
 //!
-//! Both lobes are delta: [`BsdfModel::sample`] picks reflection with the
+//! Both lobes are delta: sampling picks reflection with the
 //! probability F (the Fresnel reflectance), so the weight is the
 //! reflectance or transmittance parameter alone, and `pdf` the lobe's
 //! probability. Radiance carried through the interface is scaled by
@@ -28,7 +28,7 @@
 //! the inverse relative index. Mitsuba 3's `dielectric`; pbrt-v4 §9.5.
 
 use super::fresnel::{fresnel_dielectric, reflect, refract};
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample, TransportMode};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter, TransportMode};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -91,24 +91,40 @@ pub(crate) fn refraction_scale(mode: TransportMode, eta_it: f32) -> f32 {
     }
 }
 
-impl BsdfModel for Dielectric {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+impl Dielectric {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::DELTA_REFLECTION
             | BsdfFlags::DELTA_TRANSMISSION
             | BsdfFlags::FRONT_SIDE
             | BsdfFlags::BACK_SIDE
     }
 
+    /// The lobe at `si`.
     #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        u1: f32,
-        _: Vec2,
-    ) -> Option<BsdfSample> {
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> DielectricLobe {
+        DielectricLobe {
+            eta: self.eta,
+            specular_reflectance: self.specular_reflectance.eval(m, si),
+            specular_transmittance: self.specular_transmittance.eval(m, si),
+        }
+    }
+}
+
+/// [`Dielectric`] at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DielectricLobe {
+    /// Relative index of refraction, interior over exterior.
+    pub eta: f32,
+    /// Scales the reflected part.
+    pub specular_reflectance: Rgb,
+    /// Scales the transmitted part.
+    pub specular_transmittance: Rgb,
+}
+
+impl Scatter for DielectricLobe {
+    #[inline]
+    fn sample(&self, ctx: &BsdfContext, wo: Vec3, u1: f32, _: Vec2) -> Option<BsdfSample> {
         let (f, cos_theta_t, eta_it, eta_ti) = fresnel_dielectric(wo.z, self.eta);
         Some(if u1 < f {
             BsdfSample {
@@ -116,7 +132,7 @@ impl BsdfModel for Dielectric {
                 pdf: f,
                 eta: 1.0,
                 sampled: BsdfFlags::DELTA_REFLECTION,
-                weight: self.specular_reflectance.eval(m, si),
+                weight: self.specular_reflectance,
             }
         } else {
             BsdfSample {
@@ -124,26 +140,18 @@ impl BsdfModel for Dielectric {
                 pdf: 1.0 - f,
                 eta: eta_it,
                 sampled: BsdfFlags::DELTA_TRANSMISSION,
-                weight: self.specular_transmittance.eval(m, si)
-                    * refraction_scale(ctx.mode, eta_it),
+                weight: self.specular_transmittance * refraction_scale(ctx.mode, eta_it),
             }
         })
     }
 
     #[inline]
-    fn eval(
-        &self,
-        _: &Materials,
-        _: &BsdfContext,
-        _: &SurfaceInteraction,
-        _: Vec3,
-        _: Vec3,
-    ) -> Rgb {
+    fn eval(&self, _: &BsdfContext, _: Vec3, _: Vec3) -> Rgb {
         Rgb::ZERO
     }
 
     #[inline]
-    fn pdf(&self, _: &Materials, _: &BsdfContext, _: &SurfaceInteraction, _: Vec3, _: Vec3) -> f32 {
+    fn pdf(&self, _: &BsdfContext, _: Vec3, _: Vec3) -> f32 {
         0.0
     }
 }
@@ -152,7 +160,8 @@ impl BsdfModel for Dielectric {
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{flat_si, Variant};
-    use crate::bsdf::Bsdf;
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::Material;
     use crate::testing::params::{MapParams, Value};
 
     /// Sample weights, lobe probabilities, directions and η printed by
@@ -252,7 +261,7 @@ pub(crate) mod tests {
         ];
         let si = flat_si();
         for (eta, wo, u1, wi, pdf, eta_out, w_rad, w_imp) in cases {
-            let t = Materials::with_bsdfs(vec![Bsdf::Dielectric(Dielectric::new(eta))]);
+            let t = Materials::with_bsdfs(vec![Material::Dielectric(Dielectric::new(eta))]);
             let b = &t.bsdfs[0];
             for (mode, w) in [
                 (TransportMode::Radiance, w_rad),
@@ -284,7 +293,7 @@ pub(crate) mod tests {
             specular_transmittance: Tex::value(0.8),
             ..Dielectric::new(bk7)
         };
-        let t = Materials::with_bsdfs(vec![Bsdf::Dielectric(tinted)]);
+        let t = Materials::with_bsdfs(vec![Material::Dielectric(tinted)]);
         let wo = Vec3::new(0.309426, 0.206284, 0.928279);
         let ctx = BsdfContext::default();
         let r = t.bsdfs[0]
@@ -336,7 +345,7 @@ pub(crate) mod tests {
         .map(|eta| {
             let mut v = Variant::last(
                 format!("dielectric (η {eta})"),
-                vec![Bsdf::Dielectric(Dielectric::new(eta))],
+                vec![Material::Dielectric(Dielectric::new(eta))],
             );
             v.lossless = true;
             v
@@ -344,7 +353,7 @@ pub(crate) mod tests {
         .collect();
         v.push(Variant::last(
             "dielectric (tinted)",
-            vec![Bsdf::Dielectric(Dielectric {
+            vec![Material::Dielectric(Dielectric {
                 specular_reflectance: Tex::Const(Rgb::new(0.9, 0.5, 0.2)),
                 specular_transmittance: Tex::Const(Rgb::new(0.3, 0.8, 1.0)),
                 ..Dielectric::new(1.5)

@@ -18,7 +18,7 @@
 //! importance are transported alike. Mitsuba 0.6's `difftrans`; the
 //! Lambertian transmission of pbrt-v3 §8.3 (`LambertianTransmission`).
 
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -55,21 +55,31 @@ impl DiffTrans {
     }
 }
 
-impl BsdfModel for DiffTrans {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+impl DiffTrans {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::DIFFUSE_TRANSMISSION | BsdfFlags::FRONT_SIDE | BsdfFlags::BACK_SIDE
     }
 
+    /// The lobe at `si`.
     #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        _: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> DiffTransLobe {
+        DiffTransLobe {
+            transmittance: self.transmittance.eval(m, si),
+        }
+    }
+}
+
+/// [`DiffTrans`] at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiffTransLobe {
+    /// Transmitted fraction.
+    pub transmittance: Rgb,
+}
+
+impl Scatter for DiffTransLobe {
+    #[inline]
+    fn sample(&self, _: &BsdfContext, wo: Vec3, _: f32, u2: Vec2) -> Option<BsdfSample> {
         if wo.z == 0.0 {
             return None;
         }
@@ -83,34 +93,20 @@ impl BsdfModel for DiffTrans {
             pdf,
             eta: 1.0,
             sampled: BsdfFlags::DIFFUSE_TRANSMISSION,
-            weight: self.transmittance.eval(m, si),
+            weight: self.transmittance,
         })
     }
 
     #[inline]
-    fn eval(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
+    fn eval(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z * wi.z >= 0.0 {
             return Rgb::ZERO;
         }
-        self.transmittance.eval(m, si) * (FRAC_1_PI * wi.z.abs())
+        self.transmittance * (FRAC_1_PI * wi.z.abs())
     }
 
     #[inline]
-    fn pdf(
-        &self,
-        _: &Materials,
-        _: &BsdfContext,
-        _: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
+    fn pdf(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z * wi.z >= 0.0 {
             return 0.0;
         }
@@ -123,7 +119,8 @@ pub(crate) mod tests {
     use super::*;
     use crate::bsdf::microfacet::tests::MapParams;
     use crate::bsdf::tests::{albedo, check_bsdf, flat_si, Variant};
-    use crate::bsdf::Bsdf;
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::Material;
     use crate::sampler::Pcg32;
 
     /// The albedo is exactly T from every direction on both sides, and
@@ -131,7 +128,7 @@ pub(crate) mod tests {
     #[test]
     fn transmits_exactly_the_transmittance() {
         let t = Rgb::new(0.2, 0.5, 0.9);
-        let m = Materials::with_bsdfs(vec![Bsdf::DiffTrans(DiffTrans::new(t))]);
+        let m = Materials::with_bsdfs(vec![Material::DiffTrans(DiffTrans::new(t))]);
         let (ctx, si) = (BsdfContext::default(), flat_si());
         let mut rng = Pcg32::new(1, 2);
         for _ in 0..20 {
@@ -172,12 +169,12 @@ pub(crate) mod tests {
     pub(crate) fn test_variants() -> Vec<Variant> {
         let mut white = Variant::last(
             "difftrans (white)",
-            vec![Bsdf::DiffTrans(DiffTrans::new(Rgb::ONE))],
+            vec![Material::DiffTrans(DiffTrans::new(Rgb::ONE))],
         );
         white.lossless = true;
         let mut textured = Variant::last(
             "difftrans (checkerboard texture)",
-            vec![Bsdf::DiffTrans(DiffTrans {
+            vec![Material::DiffTrans(DiffTrans {
                 transmittance: Tex::Texture(0),
             })],
         );
@@ -194,7 +191,7 @@ pub(crate) mod tests {
         vec![
             Variant::last(
                 "difftrans",
-                vec![Bsdf::DiffTrans(DiffTrans::new(Rgb::new(0.2, 0.5, 0.9)))],
+                vec![Material::DiffTrans(DiffTrans::new(Rgb::new(0.2, 0.5, 0.9)))],
             ),
             white,
             textured,

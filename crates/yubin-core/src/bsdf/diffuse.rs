@@ -12,7 +12,7 @@
 //! Samples the cosine-weighted hemisphere, so the sample weight is ρ.
 //! Mitsuba 3's `diffuse`; pbrt-v4 §9.2.
 
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -53,21 +53,31 @@ impl Diffuse {
     }
 }
 
-impl BsdfModel for Diffuse {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+impl Diffuse {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::DIFFUSE_REFLECTION | BsdfFlags::FRONT_SIDE
     }
 
+    /// The lobe at `si`.
     #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        _: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> DiffuseLobe {
+        DiffuseLobe {
+            reflectance: self.reflectance.eval(m, si),
+        }
+    }
+}
+
+/// [`Diffuse`] at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiffuseLobe {
+    /// Albedo.
+    pub reflectance: Rgb,
+}
+
+impl Scatter for DiffuseLobe {
+    #[inline]
+    fn sample(&self, _: &BsdfContext, wo: Vec3, _: f32, u2: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
@@ -78,34 +88,20 @@ impl BsdfModel for Diffuse {
             pdf,
             eta: 1.0,
             sampled: BsdfFlags::DIFFUSE_REFLECTION,
-            weight: self.reflectance.eval(m, si),
+            weight: self.reflectance,
         })
     }
 
     #[inline]
-    fn eval(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
+    fn eval(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
-        self.reflectance.eval(m, si) * (FRAC_1_PI * wi.z)
+        self.reflectance * (FRAC_1_PI * wi.z)
     }
 
     #[inline]
-    fn pdf(
-        &self,
-        _: &Materials,
-        _: &BsdfContext,
-        _: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
+    fn pdf(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
@@ -117,19 +113,21 @@ impl BsdfModel for Diffuse {
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity, Variant};
-    use crate::bsdf::Bsdf;
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::Material;
 
     #[test]
     fn chi2_diffuse() {
-        let table =
-            Materials::with_bsdfs(vec![Bsdf::Diffuse(Diffuse::new(Rgb::new(0.2, 0.5, 0.9)))]);
+        let table = Materials::with_bsdfs(vec![Material::Diffuse(Diffuse::new(Rgb::new(
+            0.2, 0.5, 0.9,
+        )))]);
         check_bsdf(&table, 0, Vec3::new(0.3, 0.2, 0.9).normalize());
         check_bsdf(&table, 0, Vec3::new(-0.9, 0.1, 0.05).normalize());
     }
 
     #[test]
     fn diffuse_energy_and_reciprocity() {
-        let table = Materials::with_bsdfs(vec![Bsdf::Diffuse(Diffuse::new(Rgb::ONE))]);
+        let table = Materials::with_bsdfs(vec![Material::Diffuse(Diffuse::new(Rgb::ONE))]);
         let a = albedo(&table, 0, Vec3::new(0.1, 0.2, 0.8).normalize());
         assert!(
             (a - Rgb::ONE).abs().max_element() < 1e-6,
@@ -151,7 +149,7 @@ pub(crate) mod tests {
         let textured = {
             let mut v = Variant::last(
                 "diffuse (checkerboard texture)",
-                vec![Bsdf::Diffuse(Diffuse {
+                vec![Material::Diffuse(Diffuse {
                     reflectance: Tex::Texture(0),
                 })],
             );
@@ -166,13 +164,13 @@ pub(crate) mod tests {
         };
         let mut white = Variant::last(
             "diffuse (white)",
-            vec![Bsdf::Diffuse(Diffuse::new(Rgb::ONE))],
+            vec![Material::Diffuse(Diffuse::new(Rgb::ONE))],
         );
         white.lossless = true;
         vec![
             Variant::last(
                 "diffuse",
-                vec![Bsdf::Diffuse(Diffuse::new(Rgb::new(0.2, 0.5, 0.9)))],
+                vec![Material::Diffuse(Diffuse::new(Rgb::new(0.2, 0.5, 0.9)))],
             ),
             white,
             textured,

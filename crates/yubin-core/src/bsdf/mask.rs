@@ -22,7 +22,8 @@
 //! transmittance 1 − α (a generalized shadow ray). A colour texture's
 //! luminance is its opacity. Mitsuba 3's `mask`.
 
-use super::{Bsdf, BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::value::Tree;
+use super::{BsdfContext, BsdfFlags, BsdfSample, Material};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -66,26 +67,41 @@ impl Mask {
         self.opacity.eval_1(m, si).clamp(0.0, 1.0)
     }
 
-    fn nested<'m>(&self, m: &'m Materials) -> &'m Bsdf {
+    fn nested<'m>(&self, m: &'m Materials) -> &'m Material {
         &m.bsdfs[self.nested as usize]
     }
 }
 
-impl BsdfModel for Mask {
-    fn flags(&self, m: &Materials) -> BsdfFlags {
+impl Mask {
+    /// Lobes this material has.
+    pub fn flags(&self, m: &Materials) -> BsdfFlags {
         self.nested(m).flags(m) | BsdfFlags::NULL | BsdfFlags::FRONT_SIDE | BsdfFlags::BACK_SIDE
     }
+}
 
-    fn sample(
+/// A [`Mask`] at a vertex: its opacity α there and its nested BSDF.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct MaskNode {
+    alpha: f32,
+    nested: u8,
+}
+
+impl MaskNode {
+    /// Opacity `alpha` over node `nested`.
+    pub(super) fn new(alpha: f32, nested: u8) -> Self {
+        Self { alpha, nested }
+    }
+
+    /// The null lobe with probability 1 − α, else the nested BSDF.
+    pub(super) fn sample(
         &self,
-        m: &Materials,
+        t: &Tree,
         ctx: &BsdfContext,
-        si: &SurfaceInteraction,
         wo: Vec3,
         u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample> {
-        let alpha = self.alpha(m, si);
+        let alpha = self.alpha;
         if u1 >= alpha {
             return Some(BsdfSample {
                 wi: -wo,
@@ -95,7 +111,7 @@ impl BsdfModel for Mask {
                 weight: Rgb::ONE,
             });
         }
-        let s = self.nested(m).sample(m, ctx, si, wo, u1 / alpha, u2)?;
+        let s = t.sample(self.nested, ctx, wo, u1 / alpha, u2)?;
         // α·f / (α·pdf): the weight of either lobe kind is unchanged.
         Some(BsdfSample {
             pdf: s.pdf * alpha,
@@ -103,39 +119,17 @@ impl BsdfModel for Mask {
         })
     }
 
-    fn eval(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
-        self.nested(m).eval(m, ctx, si, wo, wi) * self.alpha(m, si)
+    pub(super) fn eval(&self, t: &Tree, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
+        t.eval(self.nested, ctx, wo, wi) * self.alpha
     }
 
-    fn pdf(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
-        self.nested(m).pdf(m, ctx, si, wo, wi) * self.alpha(m, si)
+    pub(super) fn pdf(&self, t: &Tree, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
+        t.pdf(self.nested, ctx, wo, wi) * self.alpha
     }
 
-    fn eval_pdf(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> (Rgb, f32) {
-        let alpha = self.alpha(m, si);
-        let (f, pdf) = self.nested(m).eval_pdf(m, ctx, si, wo, wi);
-        (f * alpha, pdf * alpha)
+    pub(super) fn eval_pdf(&self, t: &Tree, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        let (f, pdf) = t.eval_pdf(self.nested, ctx, wo, wi);
+        (f * self.alpha, pdf * self.alpha)
     }
 }
 
@@ -143,13 +137,14 @@ impl BsdfModel for Mask {
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{albedo, Variant};
+    use crate::bsdf::BsdfModel;
     use crate::bsdf::{Diffuse, TwoSided};
 
-    fn masked(alpha: f32) -> Vec<Bsdf> {
+    fn masked(alpha: f32) -> Vec<Material> {
         vec![
-            Bsdf::Diffuse(Diffuse::new(Rgb::ONE)),
-            Bsdf::TwoSided(TwoSided { front: 0, back: 0 }),
-            Bsdf::Mask(Mask {
+            Material::Diffuse(Diffuse::new(Rgb::ONE)),
+            Material::TwoSided(TwoSided { front: 0, back: 0 }),
+            Material::Mask(Mask {
                 opacity: Tex::value(alpha),
                 nested: 1,
             }),

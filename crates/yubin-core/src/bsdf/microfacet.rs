@@ -947,7 +947,7 @@ pub(crate) mod tests {
             }
         }
         let mirror = |alpha: f32| {
-            Materials::with_bsdfs(vec![crate::bsdf::Bsdf::RoughConductor(
+            Materials::with_bsdfs(vec![crate::bsdf::Material::RoughConductor(
                 crate::bsdf::RoughConductor {
                     roughness: Roughness::isotropic(MicrofacetType::Phong, alpha, false),
                     ior: crate::bsdf::ConductorIor {

@@ -1,24 +1,32 @@
-//! BSDFs: the contract every material model implements, and the closed
-//! enum the scene stores.
+//! Materials and the BSDFs they make at a surface vertex.
+//!
+//! A [`Material`] (closed enum, one variant per `<bsdf type>` plugin) is
+//! what a scene file describes: parameters that may be textures, and
+//! composites (`twosided`, `blendbsdf`, `mask`, `bumpmap`, `normalmap`)
+//! that refer to other materials by index in the scene's [`Materials`].
+//! At a vertex the integrator asks it once for a [`Bsdf`]
+//! ([`Material::at`]): a plain `Copy` value, texture-free, made of the
+//! models' [`Lobe`]s, that answers every query there (see `value.rs`).
+//! [`BsdfModel`] asks a material one query at a time through the same
+//! value, for tests and one-off queries.
 //!
 //! Conventions (shared with Mitsuba 3 and pbrt-v4):
 //! - Directions are in the local shading frame, +z the shading normal,
 //!   and both point away from the surface: `wo` towards the viewer (where
 //!   the path came from), `wi` towards the light (where it goes next).
-//! - [`BsdfModel::eval`] returns f(wo, wi) · |cos θi| — the cosine
-//!   foreshortening is included, as in Mitsuba 3.
-//! - [`BsdfModel::sample`] returns the *weight* eval/pdf, so delta lobes
-//!   (pdf formally infinite) are handled without special cases.
+//! - `eval` returns f(wo, wi) · |cos θi| — the cosine foreshortening is
+//!   included, as in Mitsuba 3.
+//! - `sample` returns the *weight* eval/pdf, so delta lobes (pdf formally
+//!   infinite) are handled without special cases.
 //! - [`TransportMode`] says whether radiance (camera paths) or importance
 //!   (light paths) is carried; non-symmetric BSDFs (refraction, shading
 //!   normals) differ between the two.
 //! - One-sided models are black when `wo` or `wi` is below the surface;
 //!   `twosided` makes them work on both sides.
 //!
-//! Composite BSDFs (`twosided`, `blendbsdf`, `mask`, `bumpmap`, ...) refer
-//! to their children by index in the scene's BSDF table, and texturable
-//! parameters to textures by index, so each method takes the scene's
-//! [`Materials`].
+//! Each plugin's file holds its material (parameters, `from_params`,
+//! `flags`, `lobe`) and its lobe ([`Scatter`]), or, for a composite, its
+//! node of the resolved tree.
 
 mod blend_bsdf;
 mod bump_map;
@@ -43,6 +51,7 @@ mod rough_diffuse;
 mod rough_plastic;
 mod thin_dielectric;
 mod twosided;
+mod value;
 
 pub use blend_bsdf::BlendBsdf;
 pub use bump_map::BumpMap;
@@ -64,6 +73,12 @@ pub use rough_diffuse::RoughDiffuse;
 pub use rough_plastic::{RoughPlastic, RoughTransmittance};
 pub use thin_dielectric::ThinDielectric;
 pub use twosided::TwoSided;
+pub use value::{Bsdf, Lobe, Scatter, MAX_LOBES, MAX_NODES};
+pub use value::{
+    ConductorLobe, DielectricLobe, DiffTransLobe, DiffuseLobe, PhongLobe, PlasticLobe,
+    PrincipledLobe, PrincipledThinLobe, RoughConductorLobe, RoughDielectricLobe, RoughDiffuseLobe,
+    RoughPlasticLobe, ThinDielectricLobe,
+};
 
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
@@ -158,7 +173,8 @@ pub struct BsdfSample {
     pub weight: Rgb,
 }
 
-/// The contract of every BSDF.
+/// A material asked one query at a time (each call makes the [`Bsdf`] at
+/// the vertex and asks it once).
 pub trait BsdfModel {
     /// Lobes this BSDF has.
     fn flags(&self, m: &Materials) -> BsdfFlags;
@@ -209,7 +225,7 @@ pub trait BsdfModel {
 
 /// A BSDF (closed enum; see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Bsdf {
+pub enum Material {
     /// `diffuse`.
     Diffuse(Diffuse),
     /// `twosided`.
@@ -250,7 +266,7 @@ pub enum Bsdf {
     DiffTrans(DiffTrans),
 }
 
-impl Bsdf {
+impl Material {
     /// Whether the BSDF's values and the distribution of its samples stay
     /// the same when the shading frame turns about the normal (it reads
     /// no tangent direction): isotropic models without bump or normal
@@ -258,40 +274,40 @@ impl Bsdf {
     pub fn turns_freely(&self, m: &Materials) -> bool {
         let isotropic = |r: &microfacet::Roughness| r.alpha_u == r.alpha_v;
         match self {
-            Bsdf::Diffuse(_)
-            | Bsdf::Plastic(_)
-            | Bsdf::RoughPlastic(_)
-            | Bsdf::Null(_)
-            | Bsdf::Dielectric(_)
-            | Bsdf::ThinDielectric(_)
-            | Bsdf::Conductor(_)
-            | Bsdf::RoughDiffuse(_)
-            | Bsdf::DiffTrans(_) => true,
-            Bsdf::RoughConductor(b) => isotropic(&b.roughness),
-            Bsdf::RoughDielectric(b) => isotropic(&b.roughness),
-            Bsdf::TwoSided(t) => [t.front, t.back]
+            Material::Diffuse(_)
+            | Material::Plastic(_)
+            | Material::RoughPlastic(_)
+            | Material::Null(_)
+            | Material::Dielectric(_)
+            | Material::ThinDielectric(_)
+            | Material::Conductor(_)
+            | Material::RoughDiffuse(_)
+            | Material::DiffTrans(_) => true,
+            Material::RoughConductor(b) => isotropic(&b.roughness),
+            Material::RoughDielectric(b) => isotropic(&b.roughness),
+            Material::TwoSided(t) => [t.front, t.back]
                 .iter()
                 .all(|&b| m.bsdfs[b as usize].turns_freely(m)),
-            Bsdf::Mask(_)
-            | Bsdf::BlendBsdf(_)
-            | Bsdf::BumpMap(_)
-            | Bsdf::NormalMap(_)
-            | Bsdf::Principled(_)
-            | Bsdf::PrincipledThin(_)
-            | Bsdf::Phong(_) => false,
+            Material::Mask(_)
+            | Material::BlendBsdf(_)
+            | Material::BumpMap(_)
+            | Material::NormalMap(_)
+            | Material::Principled(_)
+            | Material::PrincipledThin(_)
+            | Material::Phong(_) => false,
         }
     }
 }
 
-impl Bsdf {
+impl Material {
     /// The BSDFs nested in this one, by index (none for plain models).
     pub fn children(&self) -> Vec<u32> {
         match self {
-            Bsdf::TwoSided(t) => vec![t.front, t.back],
-            Bsdf::Mask(b) => vec![b.nested],
-            Bsdf::BumpMap(b) => vec![b.nested],
-            Bsdf::NormalMap(b) => vec![b.nested],
-            Bsdf::BlendBsdf(b) => b.bsdfs.to_vec(),
+            Material::TwoSided(t) => vec![t.front, t.back],
+            Material::Mask(b) => vec![b.nested],
+            Material::BumpMap(b) => vec![b.nested],
+            Material::NormalMap(b) => vec![b.nested],
+            Material::BlendBsdf(b) => b.bsdfs.to_vec(),
             _ => Vec::new(),
         }
     }
@@ -300,7 +316,7 @@ impl Bsdf {
     /// MikkTSpace: the mesh under it needs tangents
     /// ([`crate::shape::TriangleMesh::compute_tangents`]).
     pub fn needs_mikktspace(&self, m: &Materials) -> bool {
-        matches!(self, Bsdf::NormalMap(n) if n.mikktspace)
+        matches!(self, Material::NormalMap(n) if n.mikktspace)
             || self
                 .children()
                 .iter()
@@ -327,14 +343,14 @@ impl Bsdf {
         self.null_crossing(m, si, slabs).1
     }
 
-    /// [`Bsdf::null_transmission`] with the probability that
+    /// [`Material::null_transmission`] with the probability that
     /// [`BsdfModel::sample`] picks the null lobes (what `volpathmis`
     /// weighs shadow rays by): (probability, transmission).
     pub fn null_crossing(&self, m: &Materials, si: &SurfaceInteraction, slabs: bool) -> (f32, Rgb) {
         let nested = |i: u32| m.bsdfs[i as usize].null_crossing(m, si, slabs);
         match self {
-            Bsdf::Null(_) => (1.0, Rgb::ONE),
-            Bsdf::Mask(b) => {
+            Material::Null(_) => (1.0, Rgb::ONE),
+            Material::Mask(b) => {
                 let alpha = b.alpha(m, si);
                 let (p, t) = nested(b.nested);
                 (
@@ -342,12 +358,12 @@ impl Bsdf {
                     Rgb::splat(1.0 - alpha) + alpha * t,
                 )
             }
-            Bsdf::BlendBsdf(b) => {
+            Material::BlendBsdf(b) => {
                 let w = b.weight.eval_1(m, si).clamp(0.0, 1.0);
                 let [(pa, ta), (pb, tb)] = b.bsdfs.map(nested);
                 (pa * (1.0 - w) + pb * w, ta * (1.0 - w) + tb * w)
             }
-            Bsdf::TwoSided(t) => {
+            Material::TwoSided(t) => {
                 let side = if si.wo.dot(si.n) >= 0.0 {
                     t.front
                 } else {
@@ -355,18 +371,18 @@ impl Bsdf {
                 };
                 nested(side)
             }
-            Bsdf::ThinDielectric(t) if slabs => t.null_crossing(m, si),
+            Material::ThinDielectric(t) if slabs => t.null_crossing(m, si),
             _ => (0.0, Rgb::ZERO),
         }
     }
 
-    /// Whether [`Bsdf::null_transmission`] with `slabs` can be non-zero.
+    /// Whether [`Material::null_transmission`] with `slabs` can be non-zero.
     pub fn lets_light_through(&self, m: &Materials) -> bool {
         let nested = |i: u32| m.bsdfs[i as usize].lets_light_through(m);
         match self {
-            Bsdf::Null(_) | Bsdf::Mask(_) | Bsdf::ThinDielectric(_) => true,
-            Bsdf::BlendBsdf(b) => b.bsdfs.iter().any(|&i| nested(i)),
-            Bsdf::TwoSided(t) => nested(t.front) || nested(t.back),
+            Material::Null(_) | Material::Mask(_) | Material::ThinDielectric(_) => true,
+            Material::BlendBsdf(b) => b.bsdfs.iter().any(|&i| nested(i)),
+            Material::TwoSided(t) => nested(t.front) || nested(t.back),
             _ => false,
         }
     }
@@ -374,164 +390,142 @@ impl Bsdf {
     /// Computes what the BSDF needs from the scene's tables, once, as it
     /// is added to them ([`Materials::add_bsdf`]): `roughplastic`'s
     /// transmittance tables, the plastics' specular sampling weight.
-    pub fn prepare(&mut self, m: &mut Materials) {
+    pub fn prepare(&mut self, m: &Materials) {
         match self {
-            Bsdf::RoughPlastic(b) => b.prepare(m),
-            Bsdf::Plastic(b) => b.prepare(m),
+            Material::RoughPlastic(b) => b.prepare(m),
+            Material::Plastic(b) => b.prepare(m),
             _ => {}
         }
     }
 }
 
 /// Builds a BSDF plugin from its parameters.
-pub type BsdfFromParams = fn(&mut dyn Params) -> Result<Bsdf, ParamError>;
+pub type BsdfFromParams = fn(&mut dyn Params) -> Result<Material, ParamError>;
 
 /// Every BSDF plugin: its scene type string and constructor. Adding a BSDF
 /// adds one line here (and its variant and dispatch arm below).
 pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
-    ("diffuse", |p| Ok(Bsdf::Diffuse(Diffuse::from_params(p)?))),
+    ("diffuse", |p| {
+        Ok(Material::Diffuse(Diffuse::from_params(p)?))
+    }),
     ("twosided", |p| {
-        Ok(Bsdf::TwoSided(TwoSided::from_params(p)?))
+        Ok(Material::TwoSided(TwoSided::from_params(p)?))
     }),
-    ("plastic", |p| Ok(Bsdf::Plastic(Plastic::from_params(p)?))),
+    ("plastic", |p| {
+        Ok(Material::Plastic(Plastic::from_params(p)?))
+    }),
     ("roughplastic", |p| {
-        Ok(Bsdf::RoughPlastic(RoughPlastic::from_params(p)?))
+        Ok(Material::RoughPlastic(RoughPlastic::from_params(p)?))
     }),
-    ("null", |p| Ok(Bsdf::Null(Null::from_params(p)?))),
-    ("mask", |p| Ok(Bsdf::Mask(Mask::from_params(p)?))),
+    ("null", |p| Ok(Material::Null(Null::from_params(p)?))),
+    ("mask", |p| Ok(Material::Mask(Mask::from_params(p)?))),
     ("blendbsdf", |p| {
-        Ok(Bsdf::BlendBsdf(BlendBsdf::from_params(p)?))
+        Ok(Material::BlendBsdf(BlendBsdf::from_params(p)?))
     }),
-    ("bumpmap", |p| Ok(Bsdf::BumpMap(BumpMap::from_params(p)?))),
+    ("bumpmap", |p| {
+        Ok(Material::BumpMap(BumpMap::from_params(p)?))
+    }),
     ("normalmap", |p| {
-        Ok(Bsdf::NormalMap(NormalMap::from_params(p)?))
+        Ok(Material::NormalMap(NormalMap::from_params(p)?))
     }),
     ("dielectric", |p| {
-        Ok(Bsdf::Dielectric(Dielectric::from_params(p)?))
+        Ok(Material::Dielectric(Dielectric::from_params(p)?))
     }),
     ("thindielectric", |p| {
-        Ok(Bsdf::ThinDielectric(ThinDielectric::from_params(p)?))
+        Ok(Material::ThinDielectric(ThinDielectric::from_params(p)?))
     }),
     ("roughdielectric", |p| {
-        Ok(Bsdf::RoughDielectric(RoughDielectric::from_params(p)?))
+        Ok(Material::RoughDielectric(RoughDielectric::from_params(p)?))
     }),
     ("conductor", |p| {
-        Ok(Bsdf::Conductor(Conductor::from_params(p)?))
+        Ok(Material::Conductor(Conductor::from_params(p)?))
     }),
     ("roughconductor", |p| {
-        Ok(Bsdf::RoughConductor(RoughConductor::from_params(p)?))
+        Ok(Material::RoughConductor(RoughConductor::from_params(p)?))
     }),
     ("principled", |p| {
-        Ok(Bsdf::Principled(Principled::from_params(p)?))
+        Ok(Material::Principled(Principled::from_params(p)?))
     }),
     ("principledthin", |p| {
-        Ok(Bsdf::PrincipledThin(PrincipledThin::from_params(p)?))
+        Ok(Material::PrincipledThin(PrincipledThin::from_params(p)?))
     }),
     ("roughdiffuse", |p| {
-        Ok(Bsdf::RoughDiffuse(RoughDiffuse::from_params(p)?))
+        Ok(Material::RoughDiffuse(RoughDiffuse::from_params(p)?))
     }),
-    ("phong", |p| Ok(Bsdf::Phong(Phong::from_params(p)?))),
+    ("phong", |p| Ok(Material::Phong(Phong::from_params(p)?))),
     ("difftrans", |p| {
-        Ok(Bsdf::DiffTrans(DiffTrans::from_params(p)?))
+        Ok(Material::DiffTrans(DiffTrans::from_params(p)?))
     }),
 ];
-
-/// A BSDF at one vertex, seen from `wo` (local), for the vertex's light
-/// sample and BSDF sample: where a model has terms that depend on the
-/// vertex and `wo` alone (`roughplastic`), they are computed once
-/// ([`Bsdf::at`]); the values are the BSDF's own, bit for bit.
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum BsdfAt<'a> {
-    /// A rough plastic bound to the vertex (`None` from below, where it
-    /// reflects nothing).
-    RoughPlastic(Option<rough_plastic::RoughPlasticAt<'a>>),
-    /// Any other BSDF, asked at each call.
-    Any {
-        bsdf: &'a Bsdf,
-        m: &'a Materials,
-        si: &'a SurfaceInteraction,
-        wo: Vec3,
-    },
-}
-
-impl Bsdf {
-    /// The BSDF at `si` seen from the local direction `wo`.
-    #[inline]
-    pub(crate) fn at<'a>(
-        &'a self,
-        m: &'a Materials,
-        si: &'a SurfaceInteraction,
-        wo: Vec3,
-    ) -> BsdfAt<'a> {
-        match self {
-            Bsdf::RoughPlastic(p) => BsdfAt::RoughPlastic(p.at(m, si, wo)),
-            bsdf => BsdfAt::Any { bsdf, m, si, wo },
-        }
-    }
-}
-
-impl BsdfAt<'_> {
-    /// The value towards `wi` and, when `with_pdf`, the density of
-    /// sampling it ([`BsdfModel::eval_pdf`]; else [`BsdfModel::eval`] and 0).
-    #[inline]
-    pub(crate) fn eval_pdf_if(&self, wi: Vec3, with_pdf: bool) -> (Rgb, f32) {
-        match *self {
-            BsdfAt::RoughPlastic(None) => (Rgb::ZERO, 0.0),
-            BsdfAt::RoughPlastic(Some(at)) if with_pdf => at.eval_pdf(wi),
-            BsdfAt::RoughPlastic(Some(at)) => (at.eval(wi), 0.0),
-            BsdfAt::Any { bsdf, m, si, wo } => {
-                let ctx = BsdfContext::default();
-                if with_pdf {
-                    bsdf.eval_pdf(m, &ctx, si, wo, wi)
-                } else {
-                    (bsdf.eval(m, &ctx, si, wo, wi), 0.0)
-                }
-            }
-        }
-    }
-
-    /// [`BsdfModel::sample`] with the numbers `u1` and `u2`.
-    #[inline]
-    pub(crate) fn sample(&self, u1: f32, u2: Vec2) -> Option<BsdfSample> {
-        match *self {
-            BsdfAt::RoughPlastic(at) => at?.sample(u1, u2),
-            BsdfAt::Any { bsdf, m, si, wo } => {
-                bsdf.sample(m, &BsdfContext::default(), si, wo, u1, u2)
-            }
-        }
-    }
-}
 
 macro_rules! dispatch {
     ($self:expr, $b:ident => $e:expr) => {
         match $self {
-            Bsdf::Diffuse($b) => $e,
-            Bsdf::TwoSided($b) => $e,
-            Bsdf::Plastic($b) => $e,
-            Bsdf::RoughPlastic($b) => $e,
-            Bsdf::Null($b) => $e,
-            Bsdf::Mask($b) => $e,
-            Bsdf::BlendBsdf($b) => $e,
-            Bsdf::BumpMap($b) => $e,
-            Bsdf::NormalMap($b) => $e,
-            Bsdf::Dielectric($b) => $e,
-            Bsdf::ThinDielectric($b) => $e,
-            Bsdf::RoughDielectric($b) => $e,
-            Bsdf::Conductor($b) => $e,
-            Bsdf::RoughConductor($b) => $e,
-            Bsdf::Principled($b) => $e,
-            Bsdf::PrincipledThin($b) => $e,
-            Bsdf::RoughDiffuse($b) => $e,
-            Bsdf::Phong($b) => $e,
-            Bsdf::DiffTrans($b) => $e,
+            Material::Diffuse($b) => $e,
+            Material::TwoSided($b) => $e,
+            Material::Plastic($b) => $e,
+            Material::RoughPlastic($b) => $e,
+            Material::Null($b) => $e,
+            Material::Mask($b) => $e,
+            Material::BlendBsdf($b) => $e,
+            Material::BumpMap($b) => $e,
+            Material::NormalMap($b) => $e,
+            Material::Dielectric($b) => $e,
+            Material::ThinDielectric($b) => $e,
+            Material::RoughDielectric($b) => $e,
+            Material::Conductor($b) => $e,
+            Material::RoughConductor($b) => $e,
+            Material::Principled($b) => $e,
+            Material::PrincipledThin($b) => $e,
+            Material::RoughDiffuse($b) => $e,
+            Material::Phong($b) => $e,
+            Material::DiffTrans($b) => $e,
         }
     };
 }
 
-impl BsdfModel for Bsdf {
+impl Material {
+    /// Lobes this material has (at any vertex).
+    #[inline]
+    pub fn flags(&self, m: &Materials) -> BsdfFlags {
+        dispatch!(self, b => b.flags(m))
+    }
+
+    /// The single model's lobe at `si` for `wo` ([`Lobe::Black`] for a
+    /// composite, which [`Material::at`] resolves into a tree instead).
+    #[inline]
+    pub(crate) fn leaf_lobe(&self, m: &Materials, si: &SurfaceInteraction, wo: Vec3) -> Lobe {
+        match self {
+            Material::Diffuse(b) => Lobe::Diffuse(b.lobe(m, si)),
+            Material::Plastic(b) => Lobe::Plastic(b.lobe(m, si)),
+            Material::RoughPlastic(b) => b.lobe(m, si, wo).map_or(Lobe::Black, Lobe::RoughPlastic),
+            Material::Null(_) => Lobe::Null,
+            Material::Dielectric(b) => Lobe::Dielectric(b.lobe(m, si)),
+            Material::ThinDielectric(b) => Lobe::ThinDielectric(b.lobe(m, si)),
+            Material::RoughDielectric(b) => Lobe::RoughDielectric(b.lobe(m, si)),
+            Material::Conductor(b) => Lobe::Conductor(b.lobe(m, si)),
+            Material::RoughConductor(b) => Lobe::RoughConductor(b.lobe(m, si)),
+            Material::Principled(b) => Lobe::Principled(b.lobe(m, si)),
+            Material::PrincipledThin(b) => Lobe::PrincipledThin(b.lobe(m, si)),
+            Material::RoughDiffuse(b) => Lobe::RoughDiffuse(b.lobe(m, si)),
+            Material::Phong(b) => Lobe::Phong(b.lobe(m, si)),
+            Material::DiffTrans(b) => Lobe::DiffTrans(b.lobe(m, si)),
+            Material::TwoSided(_)
+            | Material::Mask(_)
+            | Material::BlendBsdf(_)
+            | Material::BumpMap(_)
+            | Material::NormalMap(_) => Lobe::Black,
+        }
+    }
+}
+
+/// One query at a time: each call makes the BSDF at the vertex
+/// ([`Material::at`]) and asks it once. An integrator makes it once per
+/// vertex instead; this serves tests and one-off queries.
+impl BsdfModel for Material {
     #[inline]
     fn flags(&self, m: &Materials) -> BsdfFlags {
-        dispatch!(self, b => b.flags(m))
+        Material::flags(self, m)
     }
     #[inline]
     fn sample(
@@ -543,7 +537,7 @@ impl BsdfModel for Bsdf {
         u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample> {
-        dispatch!(self, b => b.sample(m, ctx, si, wo, u1, u2))
+        self.at(m, si, wo).sample(ctx, u1, u2)
     }
     #[inline]
     fn eval(
@@ -554,7 +548,7 @@ impl BsdfModel for Bsdf {
         wo: Vec3,
         wi: Vec3,
     ) -> Rgb {
-        dispatch!(self, b => b.eval(m, ctx, si, wo, wi))
+        self.at(m, si, wo).eval(ctx, wi)
     }
     #[inline]
     fn pdf(
@@ -565,7 +559,7 @@ impl BsdfModel for Bsdf {
         wo: Vec3,
         wi: Vec3,
     ) -> f32 {
-        dispatch!(self, b => b.pdf(m, ctx, si, wo, wi))
+        self.at(m, si, wo).pdf(ctx, wi)
     }
     #[inline]
     fn eval_pdf(
@@ -576,7 +570,7 @@ impl BsdfModel for Bsdf {
         wo: Vec3,
         wi: Vec3,
     ) -> (Rgb, f32) {
-        dispatch!(self, b => b.eval_pdf(m, ctx, si, wo, wi))
+        self.at(m, si, wo).eval_pdf(ctx, wi)
     }
 }
 
@@ -756,11 +750,11 @@ pub(crate) mod tests {
 
     /// The part of [`albedo`] carried by null samples (the path continues
     /// straight on, keeping the previous vertex's density for MIS), and
-    /// what shadow rays get through the surface ([`Bsdf::pass_through`]),
+    /// what shadow rays get through the surface ([`Material::pass_through`]),
     /// for light arriving along `-wo`. Light sampling reaches what null
     /// samples reach only if the two agree.
     /// With `slabs`, as `volpath` asks ([`BsdfContext::null_slabs`],
-    /// [`Bsdf::null_transmission`]).
+    /// [`Material::null_transmission`]).
     pub(crate) fn null_part(m: &Materials, id: usize, wo: Vec3, slabs: bool) -> (Rgb, Rgb) {
         let b = m.bsdfs[id];
         let si = SurfaceInteraction { wo, ..flat_si() };
@@ -811,7 +805,7 @@ pub(crate) mod tests {
 
     impl Variant {
         /// A variant whose BSDF is the last entry of `bsdfs`.
-        pub(crate) fn last(name: impl Into<String>, bsdfs: Vec<Bsdf>) -> Self {
+        pub(crate) fn last(name: impl Into<String>, bsdfs: Vec<Material>) -> Self {
             let id = bsdfs.len() - 1;
             Self {
                 name: name.into(),
@@ -863,6 +857,7 @@ pub(crate) mod tests {
             rough_diffuse::tests::test_variants(),
             phong::tests::test_variants(),
             difftrans::tests::test_variants(),
+            value::tests::test_variants(),
         ]
         .into_iter()
         .flatten()
@@ -870,7 +865,7 @@ pub(crate) mod tests {
     }
 
     /// The BSDFs that say they turn freely about the normal
-    /// ([`Bsdf::turns_freely`]) give the same values and densities for
+    /// ([`Material::turns_freely`]) give the same values and densities for
     /// directions turned about it, and some of the others do not (so the
     /// check can tell).
     #[test]

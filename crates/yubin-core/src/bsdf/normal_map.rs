@@ -36,7 +36,8 @@
 //! tangent and is used as with `dpdu`. On a mesh with a uniform uv mapping
 //! the two agree.
 
-use super::perturbed::{self, Perturbation};
+use super::perturbed::Perturbation;
+use super::BsdfFlags;
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -76,7 +77,7 @@ impl NormalMap {
 
     /// The perturbed normal in the coordinates of the shading frame.
     #[inline]
-    fn perturbation(&self, m: &Materials, si: &SurfaceInteraction) -> Perturbation {
+    pub(super) fn perturbation(&self, m: &Materials, si: &SurfaceInteraction) -> Perturbation {
         let n = (self.normalmap.eval(m, si) * 2.0 - Vec3::ONE)
             .try_normalize()
             .unwrap_or(Vec3::Z);
@@ -108,20 +109,25 @@ fn mikktspace_perturbation(n: Vec3, si: &SurfaceInteraction) -> Perturbation {
     }
 }
 
-perturbed::perturbed_bsdf!(NormalMap);
+impl NormalMap {
+    /// Lobes this material has: the nested BSDF's.
+    pub fn flags(&self, m: &Materials) -> BsdfFlags {
+        m.bsdfs[self.nested as usize].flags(m)
+    }
+}
 
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{flat_si, Variant};
     use crate::bsdf::Diffuse;
-    use crate::bsdf::{Bsdf, BsdfContext, BsdfModel};
+    use crate::bsdf::{BsdfContext, BsdfModel, Material};
     use crate::Rgb;
 
-    fn tilted(n: Vec3) -> Vec<Bsdf> {
+    fn tilted(n: Vec3) -> Vec<Material> {
         vec![
-            Bsdf::Diffuse(Diffuse::new(Rgb::new(0.7, 0.5, 0.3))),
-            Bsdf::NormalMap(NormalMap {
+            Material::Diffuse(Diffuse::new(Rgb::new(0.7, 0.5, 0.3))),
+            Material::NormalMap(NormalMap {
                 normalmap: Tex::Const((n.normalize() + Vec3::ONE) * 0.5),
                 nested: 0,
                 mikktspace: false,
@@ -205,7 +211,7 @@ pub(crate) mod tests {
         let dpdu_mode = Materials::with_bsdfs(tilted(map));
         let mirrored = Materials::with_bsdfs(tilted(map * Vec3::new(1.0, -1.0, 1.0)));
         let mut mikk = tilted(map);
-        if let Bsdf::NormalMap(n) = &mut mikk[1] {
+        if let Material::NormalMap(n) = &mut mikk[1] {
             n.mikktspace = true;
         }
         let mikk = Materials::with_bsdfs(mikk);

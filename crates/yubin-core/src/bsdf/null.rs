@@ -11,12 +11,11 @@
 //! count the crossing as a bounce (as Mitsuba 3's integrators do) and shadow
 //! rays pass through. Mitsuba 3's `null`.
 
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
-use crate::interaction::SurfaceInteraction;
+use super::{BsdfFlags, BsdfSample};
 use crate::material::Materials;
 use crate::params::{ParamError, Params};
 use crate::Rgb;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// The index-matched, invisible boundary.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -29,42 +28,23 @@ impl Null {
     }
 }
 
-impl BsdfModel for Null {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+impl Null {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::NULL | BsdfFlags::FRONT_SIDE | BsdfFlags::BACK_SIDE
     }
+}
 
-    fn sample(
-        &self,
-        _: &Materials,
-        _: &BsdfContext,
-        _: &SurfaceInteraction,
-        wo: Vec3,
-        _: f32,
-        _: Vec2,
-    ) -> Option<BsdfSample> {
-        Some(BsdfSample {
-            wi: -wo,
-            pdf: 1.0,
-            eta: 1.0,
-            sampled: BsdfFlags::NULL,
-            weight: Rgb::ONE,
-        })
-    }
-
-    fn eval(
-        &self,
-        _: &Materials,
-        _: &BsdfContext,
-        _: &SurfaceInteraction,
-        _: Vec3,
-        _: Vec3,
-    ) -> Rgb {
-        Rgb::ZERO
-    }
-
-    fn pdf(&self, _: &Materials, _: &BsdfContext, _: &SurfaceInteraction, _: Vec3, _: Vec3) -> f32 {
-        0.0
+/// The one sample of `null` (and of a `mask`'s transparent part): the
+/// path goes on along `-wo` with weight 1.
+#[inline]
+pub(super) fn pass_through(wo: Vec3) -> BsdfSample {
+    BsdfSample {
+        wi: -wo,
+        pdf: 1.0,
+        eta: 1.0,
+        sampled: BsdfFlags::NULL,
+        weight: Rgb::ONE,
     }
 }
 
@@ -72,11 +52,11 @@ impl BsdfModel for Null {
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::Variant;
-    use crate::bsdf::Bsdf;
+    use crate::bsdf::Material;
 
     /// Configurations for the table-driven tests in `bsdf/mod.rs`.
     pub(crate) fn test_variants() -> Vec<Variant> {
-        let mut v = Variant::last("null", vec![Bsdf::Null(Null)]);
+        let mut v = Variant::last("null", vec![Material::Null(Null)]);
         v.lossless = true;
         vec![v]
     }

@@ -27,9 +27,8 @@
 //! darkens grazing light smoothly instead of cutting it off at the
 //! terminator.
 
-use super::{Bsdf, BsdfContext, BsdfModel, BsdfSample};
-use crate::interaction::SurfaceInteraction;
-use crate::material::Materials;
+use super::value::Tree;
+use super::{BsdfContext, BsdfSample};
 use crate::math::Frame;
 use crate::Rgb;
 use glam::{Vec2, Vec3};
@@ -82,163 +81,80 @@ fn terminator_shadowing(n: Vec3, wi: Vec3) -> f32 {
     }
 }
 
-/// The perturbed frame for `wo` with `wo` and `wi` in it, where both stay
-/// on the sides of the surface they were on (else no light passes).
-#[inline]
-fn perturbed_pair(p: &Perturbation, wo: Vec3, wi: Vec3) -> Option<(Frame, Vec3, Vec3)> {
-    let frame = p.frame(wo);
-    let (wo_p, wi_p) = (frame.to_local(wo), frame.to_local(wi));
-    (consistent(wi, wi_p) && consistent(wo, wo_p)).then_some((frame, wo_p, wi_p))
+/// A bump or normal map at a vertex: the perturbed frame chosen for the
+/// vertex's `wo` (which sees its front) and the nested BSDF's node.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PerturbedNode {
+    frame: Frame,
+    nested: u8,
 }
 
-/// `nested`'s value in the perturbed frame.
-#[inline]
-pub(super) fn eval(
-    p: &Perturbation,
-    nested: &Bsdf,
-    m: &Materials,
-    ctx: &BsdfContext,
-    si: &SurfaceInteraction,
-    wo: Vec3,
-    wi: Vec3,
-) -> Rgb {
-    let Some((frame, wo_p, wi_p)) = perturbed_pair(p, wo, wi) else {
-        return Rgb::ZERO;
-    };
-    nested.eval(m, ctx, si, wo_p, wi_p) * terminator_shadowing(frame.n, wi)
-}
-
-/// `nested`'s density in the perturbed frame.
-#[inline]
-pub(super) fn pdf(
-    p: &Perturbation,
-    nested: &Bsdf,
-    m: &Materials,
-    ctx: &BsdfContext,
-    si: &SurfaceInteraction,
-    wo: Vec3,
-    wi: Vec3,
-) -> f32 {
-    let Some((_, wo_p, wi_p)) = perturbed_pair(p, wo, wi) else {
-        return 0.0;
-    };
-    nested.pdf(m, ctx, si, wo_p, wi_p)
-}
-
-/// [`eval`] and [`pdf`] at once, with one perturbed frame and the nested
-/// BSDF's fused form.
-#[inline]
-pub(super) fn eval_pdf(
-    p: &Perturbation,
-    nested: &Bsdf,
-    m: &Materials,
-    ctx: &BsdfContext,
-    si: &SurfaceInteraction,
-    wo: Vec3,
-    wi: Vec3,
-) -> (Rgb, f32) {
-    let Some((frame, wo_p, wi_p)) = perturbed_pair(p, wo, wi) else {
-        return (Rgb::ZERO, 0.0);
-    };
-    let (f, pdf) = nested.eval_pdf(m, ctx, si, wo_p, wi_p);
-    (f * terminator_shadowing(frame.n, wi), pdf)
-}
-
-/// A sample of `nested` in the perturbed frame, returned in the original
-/// frame.
-#[inline]
-pub(super) fn sample(
-    p: &Perturbation,
-    nested: &Bsdf,
-    m: &Materials,
-    ctx: &BsdfContext,
-    si: &SurfaceInteraction,
-    wo: Vec3,
-    u1: f32,
-    u2: Vec2,
-) -> Option<BsdfSample> {
-    let frame = p.frame(wo);
-    let wo_p = frame.to_local(wo);
-    if !consistent(wo, wo_p) {
-        return None;
+impl PerturbedNode {
+    /// The node for the perturbation `p` seen from `wo`, and `wo` in its
+    /// frame; `None` where `wo` cannot see the perturbed surface (nothing
+    /// scatters).
+    #[inline]
+    pub(super) fn for_view(p: &Perturbation, wo: Vec3) -> Option<(Self, Vec3)> {
+        let frame = p.frame(wo);
+        let wo_p = frame.to_local(wo);
+        consistent(wo, wo_p).then_some((Self { frame, nested: 0 }, wo_p))
     }
-    let s = nested.sample(m, ctx, si, wo_p, u1, u2)?;
-    let wi = frame.to_world(s.wi);
-    consistent(wi, s.wi).then(|| BsdfSample {
-        wi,
-        weight: s.weight * terminator_shadowing(frame.n, wi),
-        ..s
-    })
+
+    /// With the nested BSDF's node.
+    pub(super) fn with_child(self, nested: u8) -> Self {
+        Self { nested, ..self }
+    }
+
+    /// `wo` and `wi` in the perturbed frame, where both stay on the sides
+    /// of the surface they were on (else no light passes).
+    #[inline]
+    fn pair(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
+        let (wo_p, wi_p) = (self.frame.to_local(wo), self.frame.to_local(wi));
+        (consistent(wi, wi_p) && consistent(wo, wo_p)).then_some((wo_p, wi_p))
+    }
+
+    /// The nested BSDF's value in the perturbed frame, shadowed.
+    pub(super) fn eval(&self, t: &Tree, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
+        let Some((wo_p, wi_p)) = self.pair(wo, wi) else {
+            return Rgb::ZERO;
+        };
+        t.eval(self.nested, ctx, wo_p, wi_p) * terminator_shadowing(self.frame.n, wi)
+    }
+
+    /// The nested BSDF's density in the perturbed frame.
+    pub(super) fn pdf(&self, t: &Tree, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
+        let Some((wo_p, wi_p)) = self.pair(wo, wi) else {
+            return 0.0;
+        };
+        t.pdf(self.nested, ctx, wo_p, wi_p)
+    }
+
+    /// [`PerturbedNode::eval`] and [`PerturbedNode::pdf`] at once.
+    pub(super) fn eval_pdf(&self, t: &Tree, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        let Some((wo_p, wi_p)) = self.pair(wo, wi) else {
+            return (Rgb::ZERO, 0.0);
+        };
+        let (f, pdf) = t.eval_pdf(self.nested, ctx, wo_p, wi_p);
+        (f * terminator_shadowing(self.frame.n, wi), pdf)
+    }
+
+    /// A sample of the nested BSDF in the perturbed frame, returned in the
+    /// original frame.
+    pub(super) fn sample(
+        &self,
+        t: &Tree,
+        ctx: &BsdfContext,
+        wo: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
+        let frame = self.frame;
+        let s = t.sample(self.nested, ctx, frame.to_local(wo), u1, u2)?;
+        let wi = frame.to_world(s.wi);
+        consistent(wi, s.wi).then(|| BsdfSample {
+            wi,
+            weight: s.weight * terminator_shadowing(frame.n, wi),
+            ..s
+        })
+    }
 }
-
-/// Implements [`BsdfModel`] for a BSDF that evaluates the nested BSDF
-/// `self.nested` under the perturbation `self.perturbation(m, si)`.
-macro_rules! perturbed_bsdf {
-    ($t:ty) => {
-        impl $crate::bsdf::BsdfModel for $t {
-            fn flags(&self, m: &Materials) -> $crate::bsdf::BsdfFlags {
-                m.bsdfs[self.nested as usize].flags(m)
-            }
-
-            fn sample(
-                &self,
-                m: &Materials,
-                ctx: &$crate::bsdf::BsdfContext,
-                si: &SurfaceInteraction,
-                wo: glam::Vec3,
-                u1: f32,
-                u2: glam::Vec2,
-            ) -> Option<$crate::bsdf::BsdfSample> {
-                let nested = &m.bsdfs[self.nested as usize];
-                $crate::bsdf::perturbed::sample(
-                    &self.perturbation(m, si),
-                    nested,
-                    m,
-                    ctx,
-                    si,
-                    wo,
-                    u1,
-                    u2,
-                )
-            }
-
-            fn eval(
-                &self,
-                m: &Materials,
-                ctx: &$crate::bsdf::BsdfContext,
-                si: &SurfaceInteraction,
-                wo: glam::Vec3,
-                wi: glam::Vec3,
-            ) -> $crate::Rgb {
-                let nested = &m.bsdfs[self.nested as usize];
-                $crate::bsdf::perturbed::eval(&self.perturbation(m, si), nested, m, ctx, si, wo, wi)
-            }
-
-            fn pdf(
-                &self,
-                m: &Materials,
-                ctx: &$crate::bsdf::BsdfContext,
-                si: &SurfaceInteraction,
-                wo: glam::Vec3,
-                wi: glam::Vec3,
-            ) -> f32 {
-                let nested = &m.bsdfs[self.nested as usize];
-                $crate::bsdf::perturbed::pdf(&self.perturbation(m, si), nested, m, ctx, si, wo, wi)
-            }
-
-            fn eval_pdf(
-                &self,
-                m: &Materials,
-                ctx: &$crate::bsdf::BsdfContext,
-                si: &SurfaceInteraction,
-                wo: glam::Vec3,
-                wi: glam::Vec3,
-            ) -> ($crate::Rgb, f32) {
-                let nested = &m.bsdfs[self.nested as usize];
-                let p = self.perturbation(m, si);
-                $crate::bsdf::perturbed::eval_pdf(&p, nested, m, ctx, si, wo, wi)
-            }
-        }
-    };
-}
-pub(super) use perturbed_bsdf;

@@ -41,7 +41,7 @@
 //! documentation, `phong`.
 
 use super::plastic::specular_sampling_weight;
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::math::Frame;
@@ -144,29 +144,48 @@ fn lobe_pdf(n: f32, cos_a: f32) -> f32 {
     (n + 1.0) * (0.5 * FRAC_1_PI) * cos_a.powf(n)
 }
 
-impl BsdfModel for Phong {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+impl Phong {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::DIFFUSE_REFLECTION | BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::FRONT_SIDE
     }
 
+    /// The lobe at `si`.
     #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        u1: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> PhongLobe {
+        PhongLobe {
+            n: self.n(m, si),
+            specular_reflectance: self.specular_reflectance.eval(m, si),
+            diffuse_reflectance: self.diffuse_reflectance.eval(m, si),
+            p_spec: self.prob_specular(m),
+        }
+    }
+}
+
+/// [`Phong`] at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhongLobe {
+    /// The exponent.
+    pub n: f32,
+    /// Scales the specular lobe.
+    pub specular_reflectance: Rgb,
+    /// Albedo of the diffuse lobe.
+    pub diffuse_reflectance: Rgb,
+    /// Probability of sampling the specular lobe.
+    pub p_spec: f32,
+}
+
+impl Scatter for PhongLobe {
+    #[inline]
+    fn sample(&self, ctx: &BsdfContext, wo: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
-        let (wi, sampled) = if u1 < self.prob_specular(m) {
+        let (wi, sampled) = if u1 < self.p_spec {
             // cos α = u^{1/(n+1)}: the inverse CDF of (n + 1) cosⁿ α sin α;
             // sin² α = 1 − u^{2/(n+1)} through expm1, which stays accurate
             // for large n.
-            let n = self.n(m, si);
+            let n = self.n;
             let l = u2.x.max(f32::MIN_POSITIVE).ln() / (n + 1.0);
             let cos_a = l.exp();
             let sin_a = (-(2.0 * l).exp_m1()).max(0.0).sqrt();
@@ -184,7 +203,7 @@ impl BsdfModel for Phong {
         if wi.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(m, ctx, si, wo, wi);
+        let pdf = self.pdf(ctx, wo, wi);
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
@@ -193,29 +212,20 @@ impl BsdfModel for Phong {
             pdf,
             eta: 1.0,
             sampled,
-            weight: self.eval(m, ctx, si, wo, wi) / pdf,
+            weight: self.eval(ctx, wo, wi) / pdf,
         })
     }
 
     #[inline]
-    fn eval(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
+    fn eval(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
         let cos_a = cos_alpha(wo, wi);
-        let diffuse = self.diffuse_reflectance.eval(m, si) * FRAC_1_PI;
+        let diffuse = self.diffuse_reflectance * FRAC_1_PI;
         let f = if cos_a > 0.0 {
-            let n = self.n(m, si);
-            diffuse
-                + self.specular_reflectance.eval(m, si)
-                    * ((n + 2.0) * 0.5 * FRAC_1_PI * cos_a.powf(n))
+            let n = self.n;
+            diffuse + self.specular_reflectance * ((n + 2.0) * 0.5 * FRAC_1_PI * cos_a.powf(n))
         } else {
             diffuse
         };
@@ -223,20 +233,13 @@ impl BsdfModel for Phong {
     }
 
     #[inline]
-    fn pdf(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
+    fn pdf(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let p_spec = self.prob_specular(m);
+        let p_spec = self.p_spec;
         let spec = if p_spec > 0.0 {
-            lobe_pdf(self.n(m, si), cos_alpha(wo, wi))
+            lobe_pdf(self.n, cos_alpha(wo, wi))
         } else {
             0.0
         };
@@ -249,10 +252,11 @@ pub(crate) mod tests {
     use super::*;
     use crate::bsdf::microfacet::tests::MapParams;
     use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity, flat_si, Variant};
-    use crate::bsdf::Bsdf;
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::Material;
 
     fn phong(n: f32, s: Rgb, d: Rgb) -> Materials {
-        Materials::with_bsdfs(vec![Bsdf::Phong(Phong::new(n, s, d))])
+        Materials::with_bsdfs(vec![Material::Phong(Phong::new(n, s, d))])
     }
 
     /// ∫ eval dωi over the upper hemisphere by the midpoint rule in
@@ -368,7 +372,7 @@ pub(crate) mod tests {
             .map(|n| {
                 Variant::last(
                     format!("phong (exponent {n})"),
-                    vec![Bsdf::Phong(Phong::new(
+                    vec![Material::Phong(Phong::new(
                         n,
                         Rgb::new(0.4, 0.3, 0.2),
                         Rgb::new(0.1, 0.3, 0.6),
@@ -378,11 +382,11 @@ pub(crate) mod tests {
             .collect();
         out.push(Variant::last(
             "phong (exponent 5, lobe only, ρs 1)",
-            vec![Bsdf::Phong(Phong::new(5.0, Rgb::ONE, Rgb::ZERO))],
+            vec![Material::Phong(Phong::new(5.0, Rgb::ONE, Rgb::ZERO))],
         ));
         let mut textured = Variant::last(
             "phong (checkerboard diffuse and exponent 3 / 60)",
-            vec![Bsdf::Phong(Phong {
+            vec![Material::Phong(Phong {
                 exponent: Tex::Texture(1),
                 specular_reflectance: Tex::value(0.3),
                 diffuse_reflectance: Tex::Texture(0),

@@ -39,7 +39,7 @@
 //! colour, as Mitsuba 3 does. One-sided.
 
 use super::fresnel::{fresnel_dielectric, reflect};
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -118,14 +118,6 @@ impl Plastic {
             specular_sampling_weight(Some(m), self.specular_reflectance, self.diffuse_reflectance);
     }
 
-    /// Probability of sampling the specular lobe when F(θo) = `f`.
-    #[inline]
-    fn prob_specular(&self, f: f32) -> f32 {
-        let w = self.specular_weight;
-        let (ps, pd) = (f * w, (1.0 - f) * (1.0 - w));
-        ps / (ps + pd)
-    }
-
     /// The diffuse lobe without Fresnel transmittances and cosine:
     /// ρ' / (π η²).
     #[inline]
@@ -187,21 +179,50 @@ pub(super) fn relative_ior(p: &mut dyn Params) -> Result<f32, ParamError> {
     Ok(int_ior / ext_ior)
 }
 
-impl BsdfModel for Plastic {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+impl Plastic {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::DELTA_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION | BsdfFlags::FRONT_SIDE
     }
 
+    /// The lobe at `si`.
     #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        u1: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> PlasticLobe {
+        PlasticLobe {
+            specular_reflectance: self.specular_reflectance.eval(m, si),
+            diffuse: self.diffuse(m, si),
+            eta: self.eta,
+            specular_weight: self.specular_weight,
+        }
+    }
+}
+
+/// [`Plastic`] at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlasticLobe {
+    /// Scales the specular reflection.
+    pub specular_reflectance: Rgb,
+    /// The diffuse lobe without Fresnel transmittances and cosine.
+    pub diffuse: Rgb,
+    /// Interior over exterior index of refraction.
+    pub eta: f32,
+    /// The specular sampling weight.
+    pub specular_weight: f32,
+}
+
+impl PlasticLobe {
+    /// Probability of sampling the specular lobe when F(θo) = `f`.
+    #[inline]
+    fn prob_specular(&self, f: f32) -> f32 {
+        let w = self.specular_weight;
+        let (ps, pd) = (f * w, (1.0 - f) * (1.0 - w));
+        ps / (ps + pd)
+    }
+}
+
+impl Scatter for PlasticLobe {
+    #[inline]
+    fn sample(&self, _: &BsdfContext, wo: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
@@ -213,7 +234,7 @@ impl BsdfModel for Plastic {
                 pdf: p_spec,
                 eta: 1.0,
                 sampled: BsdfFlags::DELTA_REFLECTION,
-                weight: self.specular_reflectance.eval(m, si) * (f_o / p_spec),
+                weight: self.specular_reflectance * (f_o / p_spec),
             });
         }
         let wi = square_to_cosine_hemisphere(u2);
@@ -224,8 +245,7 @@ impl BsdfModel for Plastic {
         }
         let f_i = fresnel_dielectric(wi.z, self.eta).0;
         // eval / pdf: the cosine and 1/π cancel against the cosine density.
-        let weight =
-            self.diffuse(m, si) * (std::f32::consts::PI * (1.0 - f_o) * (1.0 - f_i) / p_diff);
+        let weight = self.diffuse * (std::f32::consts::PI * (1.0 - f_o) * (1.0 - f_i) / p_diff);
         Some(BsdfSample {
             wi,
             pdf,
@@ -236,31 +256,17 @@ impl BsdfModel for Plastic {
     }
 
     #[inline]
-    fn eval(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
+    fn eval(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
         let t_o = 1.0 - fresnel_dielectric(wo.z, self.eta).0;
         let t_i = 1.0 - fresnel_dielectric(wi.z, self.eta).0;
-        self.diffuse(m, si) * (t_o * t_i * wi.z)
+        self.diffuse * (t_o * t_i * wi.z)
     }
 
     #[inline]
-    fn pdf(
-        &self,
-        _: &Materials,
-        _: &BsdfContext,
-        _: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
+    fn pdf(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
@@ -273,7 +279,8 @@ impl BsdfModel for Plastic {
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{flat_si, Variant};
-    use crate::bsdf::Bsdf;
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::Material;
 
     /// Relative IOR of bk7 in air, as Mitsuba computes it.
     const BK7_AIR: f32 = 1.5046 / 1.000277;
@@ -326,7 +333,7 @@ pub(crate) mod tests {
                     to_uv: glam::Affine2::IDENTITY,
                 },
             ));
-            let id = m.add_bsdf(Bsdf::Plastic(p)) as usize;
+            let id = m.add_bsdf(Material::Plastic(p)) as usize;
             Variant {
                 name: "plastic (checkerboard texture)".into(),
                 m,
@@ -339,7 +346,7 @@ pub(crate) mod tests {
         vec![
             Variant::last(
                 "plastic (polypropylene)",
-                vec![Bsdf::Plastic(Plastic::new(
+                vec![Material::Plastic(Plastic::new(
                     Rgb::new(0.2, 0.5, 0.9),
                     1.49 / 1.000277,
                     false,
@@ -347,11 +354,11 @@ pub(crate) mod tests {
             ),
             Variant::last(
                 "plastic (bk7, nonlinear, white)",
-                vec![Bsdf::Plastic(Plastic::new(Rgb::ONE, BK7_AIR, true))],
+                vec![Material::Plastic(Plastic::new(Rgb::ONE, BK7_AIR, true))],
             ),
             Variant::last(
                 "plastic (η = 2.4)",
-                vec![Bsdf::Plastic(Plastic::new(Rgb::splat(0.7), 2.4, false))],
+                vec![Material::Plastic(Plastic::new(Rgb::splat(0.7), 2.4, false))],
             ),
             textured,
         ]
@@ -384,18 +391,20 @@ pub(crate) mod tests {
                 'A' => Plastic::new(rho, 1.49 / 1.000277, false),
                 _ => Plastic::new(rho, BK7_AIR, true),
             };
-            let m = Materials::with_bsdfs(vec![Bsdf::Plastic(b)]);
+            let m = Materials::with_bsdfs(vec![Material::Plastic(b)]);
             let (wo, wi) = (Vec3::from(wo).normalize(), Vec3::from(wi).normalize());
-            let e = b.eval(&m, &ctx, &si, wo, wi);
+            let e = m.bsdfs[0].eval(&m, &ctx, &si, wo, wi);
             for c in 0..3 {
                 assert!(
                     close(e[c], eval[c]),
                     "{cfg} {wo} {wi}: eval {e} vs {eval:?}"
                 );
             }
-            let p = b.pdf(&m, &ctx, &si, wo, wi);
+            let p = m.bsdfs[0].pdf(&m, &ctx, &si, wo, wi);
             assert!(close(p, pdf), "{cfg} {wo} {wi}: pdf {p} vs {pdf}");
-            let s = b.sample(&m, &ctx, &si, wo, 0.0, Vec2::splat(0.5)).unwrap();
+            let s = m.bsdfs[0]
+                .sample(&m, &ctx, &si, wo, 0.0, Vec2::splat(0.5))
+                .unwrap();
             assert_eq!(s.sampled, BsdfFlags::DELTA_REFLECTION);
             assert_eq!(s.wi, reflect(wo));
             assert!(

@@ -85,7 +85,7 @@ use super::disney::{
 };
 use super::fresnel::{fresnel_dielectric, reflect_m, refract_m};
 use super::microfacet::{Microfacet, MicrofacetType};
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -188,9 +188,9 @@ impl Principled {
         }
     }
 
-    /// Everything the three methods need at `si`.
+    /// The lobe at `si`.
     #[inline]
-    fn at(&self, m: &Materials, si: &SurfaceInteraction) -> Point {
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> PrincipledLobe {
         let v = self.common.at(m, si);
         let unit = |t: &Tex| t.eval_1(m, si).clamp(0.0, 1.0);
         let metallic = unit(&self.metallic);
@@ -200,7 +200,8 @@ impl Principled {
         } else {
             0.0
         };
-        Point {
+        PrincipledLobe {
+            rates: self.rates,
             eta: self.eta_at(m, si),
             dist: ggx(v.roughness, v.anisotropic),
             opaque: (1.0 - metallic) * (1.0 - v.spec_trans),
@@ -213,64 +214,14 @@ impl Principled {
             v,
         }
     }
-
-    /// Lobe selection probabilities (diffuse, clearcoat, specular
-    /// reflection, specular transmission) given the Fresnel reflectance
-    /// `f` of the facet the specular lobes use.
-    #[inline]
-    fn lobe_probabilities(&self, p: &Point, front: bool, f: f32) -> [f32; 4] {
-        let [rd, rs, rc] = self.rates;
-        let probs = if front {
-            [
-                rd * p.opaque,
-                0.25 * p.clearcoat * rc,
-                rs * (1.0 - p.glass * (1.0 - f)),
-                rs * p.glass * (1.0 - f),
-            ]
-        } else {
-            [0.0, 0.0, f, if p.glass > 0.0 { 1.0 - f } else { 0.0 }]
-        };
-        let total: f32 = probs.iter().sum();
-        if total > 0.0 {
-            probs.map(|x| x / total)
-        } else {
-            [0.0; 4]
-        }
-    }
-
-    /// The half vector of (wo, wi), pointing out of the surface, and the
-    /// relative index along the path (η seen from wo's side).
-    #[inline]
-    fn half_vector(eta: f32, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        let eta_path = if wo.z > 0.0 { eta } else { 1.0 / eta };
-        let reflect = wo.z * wi.z > 0.0;
-        let h = (wo + wi * if reflect { 1.0 } else { eta_path }).normalize();
-        (if h.z < 0.0 { -h } else { h }, eta_path)
-    }
-
-    /// The main specular reflection's Fresnel term (see the module docs).
-    #[inline]
-    fn principled_fresnel(&self, p: &Point, f: f32, cos_oh: f32, front: bool) -> Rgb {
-        if !front {
-            return Rgb::splat(p.glass * f);
-        }
-        let v = &p.v;
-        let mut fr = Rgb::splat((1.0 - p.metallic) * (1.0 - v.spec_tint) * f);
-        if p.metallic > 0.0 {
-            fr += p.metallic * schlick_fresnel(v.base_color, cos_oh, p.eta);
-        }
-        if v.spec_tint > 0.0 {
-            let eta_it = if cos_oh >= 0.0 { p.eta } else { 1.0 / p.eta };
-            let r0 = tint_color(v.base_color) * schlick_r0(eta_it);
-            fr += (1.0 - p.metallic) * v.spec_tint * schlick_fresnel(r0, cos_oh, p.eta);
-        }
-        fr
-    }
 }
 
-/// A [`Principled`] evaluated at one surface point.
-struct Point {
+/// A [`Principled`] at one vertex.
+#[derive(Clone, Copy, Debug)]
+pub struct PrincipledLobe {
     v: DisneyValues,
+    /// Sampling rates of the diffuse, main specular and clearcoat lobes.
+    rates: [f32; 3],
     /// Relative index of refraction.
     eta: f32,
     dist: Microfacet,
@@ -303,8 +254,9 @@ const COAT_MASKING: Microfacet = Microfacet {
     sample_visible: false,
 };
 
-impl BsdfModel for Principled {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+impl Principled {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         let mut f =
             BsdfFlags::DIFFUSE_REFLECTION | BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::FRONT_SIDE;
         if self.common.may_transmit() {
@@ -312,20 +264,71 @@ impl BsdfModel for Principled {
         }
         f
     }
+}
 
-    fn sample(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        u1: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
+impl PrincipledLobe {
+    /// Lobe selection probabilities (diffuse, clearcoat, specular
+    /// reflection, specular transmission) given the Fresnel reflectance
+    /// `f` of the facet the specular lobes use.
+    #[inline]
+    fn lobe_probabilities(&self, front: bool, f: f32) -> [f32; 4] {
+        let p = self;
+        let [rd, rs, rc] = self.rates;
+        let probs = if front {
+            [
+                rd * p.opaque,
+                0.25 * p.clearcoat * rc,
+                rs * (1.0 - p.glass * (1.0 - f)),
+                rs * p.glass * (1.0 - f),
+            ]
+        } else {
+            [0.0, 0.0, f, if p.glass > 0.0 { 1.0 - f } else { 0.0 }]
+        };
+        let total: f32 = probs.iter().sum();
+        if total > 0.0 {
+            probs.map(|x| x / total)
+        } else {
+            [0.0; 4]
+        }
+    }
+
+    /// The half vector of (wo, wi), pointing out of the surface, and the
+    /// relative index along the path (η seen from wo's side).
+    #[inline]
+    fn half_vector(eta: f32, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let eta_path = if wo.z > 0.0 { eta } else { 1.0 / eta };
+        let reflect = wo.z * wi.z > 0.0;
+        let h = (wo + wi * if reflect { 1.0 } else { eta_path }).normalize();
+        (if h.z < 0.0 { -h } else { h }, eta_path)
+    }
+
+    /// The main specular reflection's Fresnel term (see the module docs).
+    #[inline]
+    fn principled_fresnel(&self, f: f32, cos_oh: f32, front: bool) -> Rgb {
+        let p = self;
+        if !front {
+            return Rgb::splat(p.glass * f);
+        }
+        let v = &p.v;
+        let mut fr = Rgb::splat((1.0 - p.metallic) * (1.0 - v.spec_tint) * f);
+        if p.metallic > 0.0 {
+            fr += p.metallic * schlick_fresnel(v.base_color, cos_oh, p.eta);
+        }
+        if v.spec_tint > 0.0 {
+            let eta_it = if cos_oh >= 0.0 { p.eta } else { 1.0 / p.eta };
+            let r0 = tint_color(v.base_color) * schlick_r0(eta_it);
+            fr += (1.0 - p.metallic) * v.spec_tint * schlick_fresnel(r0, cos_oh, p.eta);
+        }
+        fr
+    }
+}
+
+impl Scatter for PrincipledLobe {
+    fn sample(&self, ctx: &BsdfContext, wo: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
         if wo.z == 0.0 {
             return None;
         }
-        let p = self.at(m, si);
+        let p = self;
         let front = wo.z > 0.0;
         if !front && p.glass <= 0.0 {
             return None;
@@ -333,7 +336,7 @@ impl BsdfModel for Principled {
         let up = if front { wo } else { -wo };
         let h = p.dist.sample_normal(up, u2).unwrap_or(Vec3::Z);
         let (f, cos_t, eta_it, eta_ti) = fresnel_dielectric(wo.dot(h), p.eta);
-        let [pd, pc, pr, _] = self.lobe_probabilities(&p, front, f);
+        let [pd, pc, pr, _] = self.lobe_probabilities(front, f);
         // A facet lobe's direction must leave on the side its lobe scatters
         // to, through the facet's proper side (else the lobe missed, and
         // another lobe's density must not claim the direction).
@@ -360,11 +363,11 @@ impl BsdfModel for Principled {
             }
             (wi, BsdfFlags::GLOSSY_TRANSMISSION, eta_it)
         };
-        let pdf = self.pdf_at(&p, wo, wi);
+        let pdf = self.pdf_at(wo, wi);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        let value = self.eval_at(&p, ctx, wo, wi);
+        let value = self.eval_at(ctx, wo, wi);
         Some(BsdfSample {
             wi,
             pdf,
@@ -374,34 +377,21 @@ impl BsdfModel for Principled {
         })
     }
 
-    fn eval(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
-        self.eval_at(&self.at(m, si), ctx, wo, wi)
+    fn eval(&self, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
+        self.eval_at(ctx, wo, wi)
     }
 
-    fn pdf(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
-        self.pdf_at(&self.at(m, si), wo, wi)
+    fn pdf(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
+        self.pdf_at(wo, wi)
     }
 }
 
 /// The three methods at an evaluated point (so that `sample` reads the
 /// textures once).
-impl Principled {
+impl PrincipledLobe {
     #[inline]
-    fn eval_at(&self, p: &Point, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
+    fn eval_at(&self, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
+        let p = self;
         let (co, ci) = (wo.z, wi.z);
         if co == 0.0 || co * ci == 0.0 {
             return Rgb::ZERO;
@@ -415,7 +405,7 @@ impl Principled {
         let specular_d_g = || p.dist.d(h) * p.dist.g(wo, wi, h);
         if reflect && facet_agrees(h, wo, wi, true) {
             if f > 0.0 {
-                let fr = self.principled_fresnel(p, f, oh, front);
+                let fr = self.principled_fresnel(f, oh, front);
                 value += fr * (specular_d_g() / (4.0 * co.abs()));
             }
             if front && p.clearcoat > 0.0 {
@@ -438,7 +428,8 @@ impl Principled {
     }
 
     #[inline]
-    fn pdf_at(&self, p: &Point, wo: Vec3, wi: Vec3) -> f32 {
+    fn pdf_at(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let p = self;
         let (co, ci) = (wo.z, wi.z);
         if co == 0.0 || co * ci == 0.0 {
             return 0.0;
@@ -451,7 +442,7 @@ impl Principled {
         let (h, eta_path) = Self::half_vector(p.eta, wo, wi);
         let (oh, ih) = (wo.dot(h), wi.dot(h));
         let (f, ..) = fresnel_dielectric(oh, p.eta);
-        let [pd, pc, pr, pt] = self.lobe_probabilities(p, front, f);
+        let [pd, pc, pr, pt] = self.lobe_probabilities(front, f);
         let up = if front { wo } else { -wo };
         let mut pdf = 0.0;
         if reflect {
@@ -483,7 +474,8 @@ pub(crate) fn sqrt_rgb(c: Rgb) -> Rgb {
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{albedo, flat_si, Variant};
-    use crate::bsdf::{Bsdf, Conductor};
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::{Conductor, Material};
 
     fn principled(f: impl FnOnce(&mut Principled)) -> Principled {
         let mut b = Principled::new(Rgb::new(0.8, 0.4, 0.2));
@@ -493,7 +485,7 @@ pub(crate) mod tests {
 
     /// Configurations for the table-driven tests in `bsdf/mod.rs`.
     pub(crate) fn test_variants() -> Vec<Variant> {
-        let v = |name: &str, b: Principled| Variant::last(name, vec![Bsdf::Principled(b)]);
+        let v = |name: &str, b: Principled| Variant::last(name, vec![Material::Principled(b)]);
         let mut textured = v(
             "principled (textured base_color and roughness)",
             principled(|b| {
@@ -587,7 +579,7 @@ pub(crate) mod tests {
             },
             ..Principled::new(Rgb::ZERO)
         };
-        let t = Materials::with_bsdfs(vec![Bsdf::Principled(b)]);
+        let t = Materials::with_bsdfs(vec![Material::Principled(b)]);
         for z in [1.0f32, 0.5, 0.2, 0.05] {
             let wo = Vec3::new((1.0 - z * z).sqrt(), 0.0, z);
             let a = albedo(&t, 0, wo);
@@ -606,7 +598,7 @@ pub(crate) mod tests {
             to_uv: glam::Affine2::IDENTITY,
         });
         let with = |ior| {
-            let mut m = Materials::with_bsdfs(vec![Bsdf::Principled(Principled {
+            let mut m = Materials::with_bsdfs(vec![Material::Principled(Principled {
                 ior,
                 ..Principled::new(Rgb::new(0.5, 0.4, 0.3))
             })]);
@@ -651,13 +643,13 @@ pub(crate) mod tests {
             },
             ..Principled::new(base)
         };
-        let t = Materials::with_bsdfs(vec![Bsdf::Principled(b)]);
+        let t = Materials::with_bsdfs(vec![Material::Principled(b)]);
         let wo = Vec3::new(0.0, 0.01, 1.0).normalize();
         let a = albedo(&t, 0, wo);
         // A conductor whose Fresnel at normal incidence is the base
         // colour: η from R0 with k = 0.
         let eta = base.map(|r0| (1.0 + r0.sqrt()) / (1.0 - r0.sqrt()));
-        let c = Materials::with_bsdfs(vec![Bsdf::Conductor(Conductor::new(eta, Rgb::ZERO))]);
+        let c = Materials::with_bsdfs(vec![Material::Conductor(Conductor::new(eta, Rgb::ZERO))]);
         let reference = albedo(&c, 0, wo);
         assert!(
             (a - reference).abs().max_element() < 0.01,
@@ -677,7 +669,7 @@ pub(crate) mod tests {
     #[test]
     fn diffuse_at_normal_incidence_is_lambert() {
         let base = Rgb::new(0.5, 0.25, 0.125);
-        let t = Materials::with_bsdfs(vec![Bsdf::Principled(Principled::new(base))]);
+        let t = Materials::with_bsdfs(vec![Material::Principled(Principled::new(base))]);
         let ctx = BsdfContext::default();
         // A direction pair far from the specular peak at roughness 0.5
         // still sees some highlight: compare against the lobes' sum.

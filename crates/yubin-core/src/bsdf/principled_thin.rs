@@ -60,7 +60,7 @@ use super::disney::{
 };
 use super::fresnel::{fresnel_dielectric, reflect_m};
 use super::microfacet::Microfacet;
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -84,9 +84,12 @@ pub struct PrincipledThin {
     pub rates: [f32; 4],
 }
 
-/// A [`PrincipledThin`] evaluated at one surface point.
-struct Point {
+/// A [`PrincipledThin`] at one vertex.
+#[derive(Clone, Copy, Debug)]
+pub struct PrincipledThinLobe {
     v: DisneyValues,
+    /// Sampling rates of the four lobes.
+    rates: [f32; 4],
     /// d = `diff_trans` / 2.
     diff_trans: f32,
     eta: f32,
@@ -135,36 +138,18 @@ impl PrincipledThin {
         })
     }
 
+    /// The lobe at `si`.
     #[inline]
-    fn at(&self, m: &Materials, si: &SurfaceInteraction) -> Point {
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> PrincipledThinLobe {
         let v = self.common.at(m, si);
         let eta = self.eta.eval_1(m, si).max(1e-3);
-        Point {
+        PrincipledThinLobe {
+            rates: self.rates,
             diff_trans: 0.5 * self.diff_trans.eval_1(m, si).clamp(0.0, 2.0),
             eta,
             reflection: ggx(v.roughness, v.anisotropic),
             transmission: ggx((0.65 * eta - 0.35) * v.roughness, v.anisotropic),
             v,
-        }
-    }
-
-    /// Probabilities of the specular reflection, specular transmission,
-    /// diffuse reflection and diffuse transmission.
-    #[inline]
-    fn lobe_probabilities(&self, p: &Point) -> [f32; 4] {
-        let t = p.v.spec_trans;
-        let d = p.diff_trans;
-        let probs = [
-            0.5 * t * self.rates[0],
-            0.5 * t * self.rates[1],
-            (1.0 - t) * (1.0 - d) * self.rates[2],
-            (1.0 - t) * d * self.rates[3],
-        ];
-        let total: f32 = probs.iter().sum();
-        if total > 0.0 {
-            probs.map(|x| x / total)
-        } else {
-            [0.0; 4]
         }
     }
 }
@@ -186,8 +171,9 @@ fn to_front(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
     }
 }
 
-impl BsdfModel for PrincipledThin {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+impl PrincipledThin {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::DIFFUSE_REFLECTION
             | BsdfFlags::DIFFUSE_TRANSMISSION
             | BsdfFlags::GLOSSY_REFLECTION
@@ -195,22 +181,39 @@ impl BsdfModel for PrincipledThin {
             | BsdfFlags::FRONT_SIDE
             | BsdfFlags::BACK_SIDE
     }
+}
 
-    fn sample(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        u1: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
+impl PrincipledThinLobe {
+    /// Probabilities of the specular reflection, specular transmission,
+    /// diffuse reflection and diffuse transmission.
+    #[inline]
+    fn lobe_probabilities(&self) -> [f32; 4] {
+        let p = self;
+        let t = p.v.spec_trans;
+        let d = p.diff_trans;
+        let probs = [
+            0.5 * t * self.rates[0],
+            0.5 * t * self.rates[1],
+            (1.0 - t) * (1.0 - d) * self.rates[2],
+            (1.0 - t) * d * self.rates[3],
+        ];
+        let total: f32 = probs.iter().sum();
+        if total > 0.0 {
+            probs.map(|x| x / total)
+        } else {
+            [0.0; 4]
+        }
+    }
+}
+
+impl Scatter for PrincipledThinLobe {
+    fn sample(&self, ctx: &BsdfContext, wo: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
         if wo.z == 0.0 {
             return None;
         }
-        let p = self.at(m, si);
+        let p = self;
         let (up, _) = to_front(wo, Vec3::Z);
-        let [psr, pst, pdr, _] = self.lobe_probabilities(&p);
+        let [psr, pst, pdr, _] = self.lobe_probabilities();
         // A facet lobe's direction must end up on its own side, through
         // the facet's proper side (else another lobe's density would
         // claim it).
@@ -241,7 +244,7 @@ impl BsdfModel for PrincipledThin {
             )
         };
         let wi = if wo.z < 0.0 { -wi_up } else { wi_up };
-        let pdf = self.pdf_at(&p, wo, wi);
+        let pdf = self.pdf_at(wo, wi);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
@@ -250,38 +253,23 @@ impl BsdfModel for PrincipledThin {
             pdf,
             eta: 1.0,
             sampled,
-            weight: self.eval_at(&p, ctx, wo, wi) / pdf,
+            weight: self.eval_at(ctx, wo, wi) / pdf,
         })
     }
 
-    fn eval(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
-        self.eval_at(&self.at(m, si), ctx, wo, wi)
+    fn eval(&self, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
+        self.eval_at(ctx, wo, wi)
     }
 
-    fn pdf(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
-        self.pdf_at(&self.at(m, si), wo, wi)
+    fn pdf(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
+        self.pdf_at(wo, wi)
     }
 }
 
-/// The three methods at an evaluated point (so that `sample` reads the
-/// textures once).
-impl PrincipledThin {
+impl PrincipledThinLobe {
     #[inline]
-    fn eval_at(&self, p: &Point, _: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
+    fn eval_at(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
+        let p = self;
         if wo.z == 0.0 || wi.z == 0.0 {
             return Rgb::ZERO;
         }
@@ -321,13 +309,14 @@ impl PrincipledThin {
     }
 
     #[inline]
-    fn pdf_at(&self, p: &Point, wo: Vec3, wi: Vec3) -> f32 {
+    fn pdf_at(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let p = self;
         if wo.z == 0.0 || wi.z == 0.0 {
             return 0.0;
         }
         let (wo, wi) = to_front(wo, wi);
         let reflect = wi.z > 0.0;
-        let [psr, pst, pdr, pdt] = self.lobe_probabilities(p);
+        let [psr, pst, pdr, pdt] = self.lobe_probabilities();
         let h = thin_half_vector(wo, wi);
         let mut pdf = 0.0;
         if facet_agrees(h, wo, wi, reflect) {
@@ -351,7 +340,8 @@ impl PrincipledThin {
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{albedo, Variant};
-    use crate::bsdf::{Bsdf, Diffuse};
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::{Diffuse, Material};
 
     fn thin(f: impl FnOnce(&mut PrincipledThin)) -> PrincipledThin {
         let mut b = PrincipledThin::new(Rgb::new(0.3, 0.7, 0.5));
@@ -361,7 +351,8 @@ pub(crate) mod tests {
 
     /// Configurations for the table-driven tests in `bsdf/mod.rs`.
     pub(crate) fn test_variants() -> Vec<Variant> {
-        let v = |name: &str, b: PrincipledThin| Variant::last(name, vec![Bsdf::PrincipledThin(b)]);
+        let v =
+            |name: &str, b: PrincipledThin| Variant::last(name, vec![Material::PrincipledThin(b)]);
         let mut out = vec![
             v("principledthin (defaults)", thin(|_| ())),
             v(
@@ -406,7 +397,7 @@ pub(crate) mod tests {
             diff_trans: Tex::value(2.0),
             ..PrincipledThin::new(base)
         };
-        let t = Materials::with_bsdfs(vec![Bsdf::PrincipledThin(b)]);
+        let t = Materials::with_bsdfs(vec![Material::PrincipledThin(b)]);
         for wo in [Vec3::new(0.2, 0.1, 0.9), Vec3::new(0.5, -0.3, -0.4)] {
             let a = albedo(&t, 0, wo.normalize());
             assert!((a - base).abs().max_element() < 1e-4, "{a} vs {base}");
@@ -426,8 +417,8 @@ pub(crate) mod tests {
             ..PrincipledThin::new(base)
         };
         let t = Materials::with_bsdfs(vec![
-            Bsdf::PrincipledThin(b),
-            Bsdf::Diffuse(Diffuse::new(base)),
+            Material::PrincipledThin(b),
+            Material::Diffuse(Diffuse::new(base)),
         ]);
         let ctx = BsdfContext::default();
         let si = crate::bsdf::tests::flat_si();

@@ -31,8 +31,8 @@
 
 use super::conductor::ConductorIor;
 use super::fresnel::{fresnel_conductor, reflect_m};
-use super::microfacet::Roughness;
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::microfacet::{Microfacet, Roughness};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -64,34 +64,52 @@ impl RoughConductor {
             )?,
         })
     }
-
-    /// F(cos θ) times the reflectance factor.
-    #[inline]
-    fn fresnel(&self, m: &Materials, si: &SurfaceInteraction, cos_theta: f32) -> Rgb {
-        let (eta, k) = self.ior.eval(m, si);
-        self.specular_reflectance.eval(m, si) * fresnel_conductor(cos_theta, eta, k)
-    }
 }
 
-impl BsdfModel for RoughConductor {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+impl RoughConductor {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::FRONT_SIDE
     }
 
+    /// The lobe at `si`.
     #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        _: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> RoughConductorLobe {
+        RoughConductorLobe {
+            distr: self.roughness.at(m, si),
+            ior: self.ior.eval(m, si),
+            specular_reflectance: self.specular_reflectance.eval(m, si),
+        }
+    }
+}
+
+/// [`RoughConductor`] at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RoughConductorLobe {
+    /// The facet distribution.
+    pub distr: Microfacet,
+    /// (η, k) of the complex index.
+    pub ior: (Rgb, Rgb),
+    /// Factor on the reflectance.
+    pub specular_reflectance: Rgb,
+}
+
+impl RoughConductorLobe {
+    /// F(cos θ) times the reflectance factor.
+    #[inline]
+    fn fresnel(&self, cos_theta: f32) -> Rgb {
+        let (eta, k) = self.ior;
+        self.specular_reflectance * fresnel_conductor(cos_theta, eta, k)
+    }
+}
+
+impl Scatter for RoughConductorLobe {
+    #[inline]
+    fn sample(&self, _: &BsdfContext, wo: Vec3, _: f32, u2: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
-        let d = self.roughness.at(m, si);
+        let d = self.distr;
         let (h, pdf_h) = d.sample(wo, u2);
         let wi = reflect_m(wo, h);
         let wo_h = wo.dot(h);
@@ -99,7 +117,7 @@ impl BsdfModel for RoughConductor {
             return None;
         }
         let pdf = pdf_h / (4.0 * wo_h);
-        let f = self.fresnel(m, si, wo_h);
+        let f = self.fresnel(wo_h);
         // eval / pdf, with the factors that cancel left out: F G1(wi) for
         // visible normals, F G wo·h / (cos θo cos θh) otherwise.
         let weight = if d.samples_visible() {
@@ -117,36 +135,22 @@ impl BsdfModel for RoughConductor {
     }
 
     #[inline]
-    fn eval(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
+    fn eval(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
         let h = (wo + wi).normalize();
-        let d = self.roughness.at(m, si);
+        let d = self.distr;
         let dh = d.d(h);
         if dh == 0.0 || !h.is_finite() {
             return Rgb::ZERO;
         }
         // f cos θi = F D G / (4 cos θo).
-        self.fresnel(m, si, wi.dot(h)) * (dh * d.g(wo, wi, h) / (4.0 * wo.z))
+        self.fresnel(wi.dot(h)) * (dh * d.g(wo, wi, h) / (4.0 * wo.z))
     }
 
     #[inline]
-    fn pdf(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
+    fn pdf(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
@@ -155,30 +159,23 @@ impl BsdfModel for RoughConductor {
         if wo_h <= 0.0 {
             return 0.0;
         }
-        self.roughness.at(m, si).pdf(wo, h) / (4.0 * wo_h)
+        self.distr.pdf(wo, h) / (4.0 * wo_h)
     }
 
-    /// [`BsdfModel::eval`] and [`BsdfModel::pdf`] sharing the half vector,
+    /// [`Scatter::eval`] and [`Scatter::pdf`] sharing the half vector,
     /// D and G1(wo): the same values bit for bit.
     #[inline]
-    fn eval_pdf(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> (Rgb, f32) {
+    fn eval_pdf(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return (Rgb::ZERO, 0.0);
         }
         let h = (wo + wi).normalize();
-        let d = self.roughness.at(m, si);
+        let d = self.distr;
         let (dg, pdf_h) = d.dg_and_pdf(wo, wi, h);
         let value = if dg == 0.0 || !h.is_finite() {
             Rgb::ZERO
         } else {
-            self.fresnel(m, si, wi.dot(h)) * (dg / (4.0 * wo.z))
+            self.fresnel(wi.dot(h)) * (dg / (4.0 * wo.z))
         };
         let wo_h = wo.dot(h);
         let pdf = if wo_h <= 0.0 {
@@ -196,13 +193,14 @@ pub(crate) mod tests {
     use crate::bsdf::microfacet::tests::MapParams;
     use crate::bsdf::microfacet::MicrofacetType;
     use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity, flat_si, Variant};
-    use crate::bsdf::Bsdf;
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::Material;
 
     const AU_ETA: Rgb = Rgb::new(0.143, 0.374, 1.442);
     const AU_K: Rgb = Rgb::new(3.983, 2.385, 1.603);
 
-    fn rough(kind: MicrofacetType, au: f32, av: f32, visible: bool, eta: Rgb, k: Rgb) -> Bsdf {
-        Bsdf::RoughConductor(RoughConductor {
+    fn rough(kind: MicrofacetType, au: f32, av: f32, visible: bool, eta: Rgb, k: Rgb) -> Material {
+        Material::RoughConductor(RoughConductor {
             roughness: Roughness {
                 kind,
                 alpha_u: Tex::value(au),
@@ -228,7 +226,7 @@ pub(crate) mod tests {
         .map(|(a, b)| (a.normalize(), b.normalize()))
     }
 
-    fn compare(b: Bsdf, expected: &[(Rgb, f32); 4], tol: f32) {
+    fn compare(b: Material, expected: &[(Rgb, f32); 4], tol: f32) {
         let t = Materials::with_bsdfs(vec![b]);
         let (ctx, si) = (BsdfContext::default(), flat_si());
         for ((wo, wi), (f, pdf)) in pairs().into_iter().zip(expected) {
@@ -380,12 +378,12 @@ pub(crate) mod tests {
         let b = RoughConductor::from_params(&mut p).unwrap();
         assert!(p.unread().is_empty(), "{:?}", p.unread());
         assert_eq!(
-            Bsdf::RoughConductor(b),
+            Material::RoughConductor(b),
             rough(MicrofacetType::Ggx, 0.3, 0.3, true, AU_ETA, AU_K)
         );
         let b = RoughConductor::from_params(&mut MapParams::new()).unwrap();
         assert_eq!(
-            Bsdf::RoughConductor(b),
+            Material::RoughConductor(b),
             rough(
                 MicrofacetType::Beckmann,
                 0.1,
@@ -449,7 +447,7 @@ pub(crate) mod tests {
         ));
         let mut textured = Variant::last(
             "roughconductor (Beckmann, checkerboard alpha_u, alpha_v 0.2)",
-            vec![Bsdf::RoughConductor(RoughConductor {
+            vec![Material::RoughConductor(RoughConductor {
                 roughness: Roughness {
                     kind: MicrofacetType::Beckmann,
                     alpha_u: Tex::Texture(0),

@@ -43,7 +43,7 @@
 use super::dielectric::refraction_scale;
 use super::fresnel::{fresnel_dielectric, reflect_m, refract_m};
 use super::microfacet::{Microfacet, Roughness};
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -112,7 +112,43 @@ impl RoughDielectric {
             )?,
         })
     }
+}
 
+impl RoughDielectric {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
+        BsdfFlags::GLOSSY_REFLECTION
+            | BsdfFlags::GLOSSY_TRANSMISSION
+            | BsdfFlags::FRONT_SIDE
+            | BsdfFlags::BACK_SIDE
+    }
+
+    /// The lobe at `si`.
+    #[inline]
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> RoughDielectricLobe {
+        RoughDielectricLobe {
+            eta: self.eta,
+            distr: self.roughness.at(m, si),
+            specular_reflectance: self.specular_reflectance.eval(m, si),
+            specular_transmittance: self.specular_transmittance.eval(m, si),
+        }
+    }
+}
+
+/// [`RoughDielectric`] at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RoughDielectricLobe {
+    /// Relative index of refraction, interior over exterior (not 1).
+    pub eta: f32,
+    /// The facet distribution.
+    pub distr: Microfacet,
+    /// Scales the reflected part.
+    pub specular_reflectance: Rgb,
+    /// Scales the transmitted part.
+    pub specular_transmittance: Rgb,
+}
+
+impl RoughDielectricLobe {
     #[inline]
     fn half(&self, wo: Vec3, wi: Vec3) -> Option<Half> {
         if wo.z == 0.0 || wi.z == 0.0 {
@@ -156,28 +192,13 @@ impl RoughDielectric {
     }
 }
 
-impl BsdfModel for RoughDielectric {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
-        BsdfFlags::GLOSSY_REFLECTION
-            | BsdfFlags::GLOSSY_TRANSMISSION
-            | BsdfFlags::FRONT_SIDE
-            | BsdfFlags::BACK_SIDE
-    }
-
+impl Scatter for RoughDielectricLobe {
     #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        u1: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
+    fn sample(&self, ctx: &BsdfContext, wo: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
         if wo.z == 0.0 {
             return None;
         }
-        let distr: Microfacet = self.roughness.at(m, si);
+        let distr = self.distr;
         let (h, pdf_h) = distr.sample(Self::facing(wo), u2);
         // Sampling D cos θ (not the visible normals) can draw a facet that
         // faces away from wo: it neither reflects nor refracts wo.
@@ -188,11 +209,11 @@ impl BsdfModel for RoughDielectric {
         let reflect = u1 < f;
         let (wi, eta, tint, sampled) = if reflect {
             let wi = reflect_m(wo, h);
-            let tint = self.specular_reflectance.eval(m, si);
+            let tint = self.specular_reflectance;
             (wi, 1.0, tint, BsdfFlags::GLOSSY_REFLECTION)
         } else {
             let wi = refract_m(wo, h, cos_theta_t, eta_ti);
-            let tint = self.specular_transmittance.eval(m, si) * refraction_scale(ctx.mode, eta_it);
+            let tint = self.specular_transmittance * refraction_scale(ctx.mode, eta_it);
             (wi, eta_it, tint, BsdfFlags::GLOSSY_TRANSMISSION)
         };
         // The facet may send the path to the wrong side of the macro-surface
@@ -225,18 +246,11 @@ impl BsdfModel for RoughDielectric {
     }
 
     #[inline]
-    fn eval(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
+    fn eval(&self, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
         let Some(h) = self.half(wo, wi) else {
             return Rgb::ZERO;
         };
-        let distr = self.roughness.at(m, si);
+        let distr = self.distr;
         // G is zero unless h faces both directions from their own sides.
         let dg = distr.d(h.m) * distr.g(wi, wo, h.m);
         if dg == 0.0 {
@@ -244,25 +258,18 @@ impl BsdfModel for RoughDielectric {
         }
         let (f, ..) = fresnel_dielectric(wo.dot(h.m), self.eta);
         if h.reflect {
-            self.specular_reflectance.eval(m, si) * (f * dg / (4.0 * wo.z.abs()))
+            self.specular_reflectance * (f * dg / (4.0 * wo.z.abs()))
         } else {
             let (wo_h, wi_h) = (wo.dot(h.m), wi.dot(h.m));
             let denom = wo_h + h.eta * wi_h;
             let v =
                 (1.0 - f) * dg * h.eta * h.eta * (wo_h * wi_h).abs() / (wo.z.abs() * denom * denom);
-            self.specular_transmittance.eval(m, si) * (v * refraction_scale(ctx.mode, h.eta))
+            self.specular_transmittance * (v * refraction_scale(ctx.mode, h.eta))
         }
     }
 
     #[inline]
-    fn pdf(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
+    fn pdf(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
         let Some(h) = self.half(wo, wi) else {
             return 0.0;
         };
@@ -271,7 +278,7 @@ impl BsdfModel for RoughDielectric {
         if wo.dot(h.m) * wo.z <= 0.0 || wi.dot(h.m) * wi.z <= 0.0 {
             return 0.0;
         }
-        let distr = self.roughness.at(m, si);
+        let distr = self.distr;
         let (f, ..) = fresnel_dielectric(wo.dot(h.m), self.eta);
         let lobe = if h.reflect { f } else { 1.0 - f };
         distr.pdf(Self::facing(wo), h.m) * lobe * Self::dh_dwi(&h, wo, wi)
@@ -283,13 +290,14 @@ pub(crate) mod tests {
     use super::*;
     use crate::bsdf::microfacet::MicrofacetType;
     use crate::bsdf::tests::{albedo, flat_si, Variant};
-    use crate::bsdf::{Bsdf, TransportMode};
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::{Material, TransportMode};
     use crate::testing::params::{MapParams, Value};
 
     const BK7_AIR: f32 = 1.5046 / 1.000_277;
 
-    fn rough(kind: MicrofacetType, alpha: f32, visible: bool, eta: f32) -> Bsdf {
-        Bsdf::RoughDielectric(RoughDielectric::new(
+    fn rough(kind: MicrofacetType, alpha: f32, visible: bool, eta: f32) -> Material {
+        Material::RoughDielectric(RoughDielectric::new(
             eta,
             Roughness::isotropic(kind, alpha, visible),
         ))
@@ -495,7 +503,7 @@ pub(crate) mod tests {
             }
             v.push(Variant::last(
                 format!("roughdielectric ({kind:?}, anisotropic 0.05 × 0.4, η 1.5, tinted)"),
-                vec![Bsdf::RoughDielectric(RoughDielectric {
+                vec![Material::RoughDielectric(RoughDielectric {
                     eta: 1.5,
                     roughness: Roughness {
                         kind,

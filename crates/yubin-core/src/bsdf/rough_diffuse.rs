@@ -54,7 +54,7 @@
 //! Reflectance Model" (SIGGRAPH '94); Mitsuba 0.6 documentation,
 //! `roughdiffuse`; pbrt-v3 §8.4.2 (the simplified model).
 
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ColorKind, ParamError, Params};
@@ -116,13 +116,43 @@ impl RoughDiffuse {
             fast_approx: p.boolean_or("use_fast_approx", false)?,
         })
     }
+}
 
+impl RoughDiffuse {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
+        BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::FRONT_SIDE
+    }
+
+    /// The lobe at `si`.
+    #[inline]
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> RoughDiffuseLobe {
+        RoughDiffuseLobe {
+            reflectance: self.reflectance.eval(m, si),
+            alpha: self.alpha.eval_1(m, si),
+            fast_approx: self.fast_approx,
+        }
+    }
+}
+
+/// [`RoughDiffuse`] at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RoughDiffuseLobe {
+    /// Albedo.
+    pub reflectance: Rgb,
+    /// Roughness (the standard deviation of the facet angle, times √2).
+    pub alpha: f32,
+    /// Only the first term of the Oren–Nayar model.
+    pub fast_approx: bool,
+}
+
+impl RoughDiffuseLobe {
     /// π f / ρ-weighted factor: f(wo, wi) = g / π with g returned here
     /// (both directions above the surface). The sample weight is g itself.
     #[inline]
-    fn g(&self, m: &Materials, si: &SurfaceInteraction, wo: Vec3, wi: Vec3) -> Rgb {
-        let rho = self.reflectance.eval(m, si);
-        let sigma = self.alpha.eval_1(m, si).max(0.0) * FRAC_1_SQRT_2;
+    fn g(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        let rho = self.reflectance;
+        let sigma = self.alpha.max(0.0) * FRAC_1_SQRT_2;
         let s2 = sigma * sigma;
         let sin_i = (1.0 - wi.z * wi.z).max(0.0).sqrt();
         let sin_o = (1.0 - wo.z * wo.z).max(0.0).sqrt();
@@ -161,21 +191,9 @@ impl RoughDiffuse {
     }
 }
 
-impl BsdfModel for RoughDiffuse {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
-        BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::FRONT_SIDE
-    }
-
+impl Scatter for RoughDiffuseLobe {
     #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        _: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
+    fn sample(&self, _: &BsdfContext, wo: Vec3, _: f32, u2: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
@@ -186,34 +204,20 @@ impl BsdfModel for RoughDiffuse {
             pdf,
             eta: 1.0,
             sampled: BsdfFlags::GLOSSY_REFLECTION,
-            weight: self.g(m, si, wo, wi),
+            weight: self.g(wo, wi),
         })
     }
 
     #[inline]
-    fn eval(
-        &self,
-        m: &Materials,
-        _: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
+    fn eval(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
-        self.g(m, si, wo, wi) * (FRAC_1_PI * wi.z)
+        self.g(wo, wi) * (FRAC_1_PI * wi.z)
     }
 
     #[inline]
-    fn pdf(
-        &self,
-        _: &Materials,
-        _: &BsdfContext,
-        _: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
+    fn pdf(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
@@ -226,7 +230,8 @@ pub(crate) mod tests {
     use super::*;
     use crate::bsdf::microfacet::tests::MapParams;
     use crate::bsdf::tests::{albedo, flat_si, Variant};
-    use crate::bsdf::{Bsdf, Diffuse};
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::{Diffuse, Material};
     use crate::sampler::Pcg32;
     use std::f32::consts::PI;
 
@@ -237,8 +242,8 @@ pub(crate) mod tests {
         let rho = Rgb::new(0.2, 0.5, 0.9);
         for fast in [false, true] {
             let m = Materials::with_bsdfs(vec![
-                Bsdf::RoughDiffuse(RoughDiffuse::new(rho, 0.0, fast)),
-                Bsdf::Diffuse(Diffuse::new(rho)),
+                Material::RoughDiffuse(RoughDiffuse::new(rho, 0.0, fast)),
+                Material::Diffuse(Diffuse::new(rho)),
             ]);
             let (on, lambert) = (m.bsdfs[0], m.bsdfs[1]);
             let (ctx, si) = (BsdfContext::default(), flat_si());
@@ -278,7 +283,7 @@ pub(crate) mod tests {
         let c1 = 1.0 - 0.5 * s2 / (s2 + 0.33);
         let c4 = 0.17 * s2 / (s2 + 0.13);
         let (ctx, si) = (BsdfContext::default(), flat_si());
-        let full = Materials::with_bsdfs(vec![Bsdf::RoughDiffuse(RoughDiffuse::new(
+        let full = Materials::with_bsdfs(vec![Material::RoughDiffuse(RoughDiffuse::new(
             Rgb::splat(rho),
             alpha,
             false,
@@ -295,7 +300,7 @@ pub(crate) mod tests {
         let wi = Vec3::new(ti.sin(), 0.0, ti.cos());
         let b = 0.45 * s2 / (s2 + 0.09);
         let fast_expected = rho / PI * (c1 + b * to.sin() * ti.tan()) * wi.z;
-        let fast = Materials::with_bsdfs(vec![Bsdf::RoughDiffuse(RoughDiffuse::new(
+        let fast = Materials::with_bsdfs(vec![Material::RoughDiffuse(RoughDiffuse::new(
             Rgb::splat(rho),
             alpha,
             true,
@@ -338,7 +343,7 @@ pub(crate) mod tests {
     fn rough_is_retroreflective_and_bounded() {
         let (ctx, si) = (BsdfContext::default(), flat_si());
         for fast in [false, true] {
-            let m = Materials::with_bsdfs(vec![Bsdf::RoughDiffuse(RoughDiffuse::new(
+            let m = Materials::with_bsdfs(vec![Material::RoughDiffuse(RoughDiffuse::new(
                 Rgb::splat(0.9),
                 1.0,
                 fast,
@@ -394,7 +399,7 @@ pub(crate) mod tests {
             for alpha in [0.0, 0.1, 0.3, 0.7, 1.0] {
                 out.push(Variant::last(
                     format!("roughdiffuse (α {alpha}, fast {fast})"),
-                    vec![Bsdf::RoughDiffuse(RoughDiffuse::new(
+                    vec![Material::RoughDiffuse(RoughDiffuse::new(
                         Rgb::new(0.2, 0.5, 0.9),
                         alpha,
                         fast,
@@ -404,7 +409,7 @@ pub(crate) mod tests {
         }
         let mut textured = Variant::last(
             "roughdiffuse (checkerboard reflectance, α 0.5)",
-            vec![Bsdf::RoughDiffuse(RoughDiffuse {
+            vec![Material::RoughDiffuse(RoughDiffuse {
                 reflectance: Tex::Texture(0),
                 alpha: Tex::value(0.5),
                 fast_approx: false,
@@ -417,7 +422,7 @@ pub(crate) mod tests {
         out.push(textured);
         let mut rough_tex = Variant::last(
             "roughdiffuse (checkerboard α 0.1 / 0.8)",
-            vec![Bsdf::RoughDiffuse(RoughDiffuse {
+            vec![Material::RoughDiffuse(RoughDiffuse {
                 reflectance: Tex::value(0.7),
                 alpha: Tex::Texture(0),
                 fast_approx: false,

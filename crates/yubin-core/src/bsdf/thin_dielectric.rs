@@ -35,9 +35,9 @@
 //! `volpath` (whose shadow rays cross slabs, as Mitsuba's `volpath`'s do)
 //! asks for the null flag through [`BsdfContext::null_slabs`].
 
-use super::dielectric::Dielectric;
+use super::dielectric::{Dielectric, DielectricLobe};
 use super::fresnel::{fresnel_dielectric, reflect};
-use super::{BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
+use super::{BsdfContext, BsdfFlags, BsdfSample, Scatter};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::params::{ParamError, Params};
@@ -70,42 +70,54 @@ impl ThinDielectric {
     /// The slab's reflectance for a direction with cosine `cos_theta`.
     #[inline]
     pub fn reflectance(&self, cos_theta: f32) -> f32 {
-        // The slab is symmetric, so the side does not matter.
-        let r = fresnel_dielectric(cos_theta.abs(), self.0.eta).0;
-        if r < 1.0 {
-            2.0 * r / (1.0 + r)
-        } else {
-            1.0
-        }
+        slab_reflectance(cos_theta, self.0.eta)
     }
 }
 
-impl BsdfModel for ThinDielectric {
-    fn flags(&self, _: &Materials) -> BsdfFlags {
+/// The reflectance of a slab of relative index `eta` for a direction
+/// with cosine `cos_theta`, its inner reflections summed.
+#[inline]
+fn slab_reflectance(cos_theta: f32, eta: f32) -> f32 {
+    // The slab is symmetric, so the side does not matter.
+    let r = fresnel_dielectric(cos_theta.abs(), eta).0;
+    if r < 1.0 {
+        2.0 * r / (1.0 + r)
+    } else {
+        1.0
+    }
+}
+
+impl ThinDielectric {
+    /// Lobes this material has.
+    pub fn flags(&self, _: &Materials) -> BsdfFlags {
         BsdfFlags::DELTA_REFLECTION
             | BsdfFlags::DELTA_TRANSMISSION
             | BsdfFlags::FRONT_SIDE
             | BsdfFlags::BACK_SIDE
     }
 
+    /// The lobe at `si`.
     #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        u1: f32,
-        _: Vec2,
-    ) -> Option<BsdfSample> {
-        let r = self.reflectance(wo.z);
+    pub fn lobe(&self, m: &Materials, si: &SurfaceInteraction) -> ThinDielectricLobe {
+        ThinDielectricLobe(self.0.lobe(m, si))
+    }
+}
+
+/// [`ThinDielectric`] at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinDielectricLobe(pub DielectricLobe);
+
+impl Scatter for ThinDielectricLobe {
+    #[inline]
+    fn sample(&self, ctx: &BsdfContext, wo: Vec3, u1: f32, _: Vec2) -> Option<BsdfSample> {
+        let r = slab_reflectance(wo.z, self.0.eta);
         Some(if u1 < r {
             BsdfSample {
                 wi: reflect(wo),
                 pdf: r,
                 eta: 1.0,
                 sampled: BsdfFlags::DELTA_REFLECTION,
-                weight: self.0.specular_reflectance.eval(m, si),
+                weight: self.0.specular_reflectance,
             }
         } else {
             BsdfSample {
@@ -117,25 +129,18 @@ impl BsdfModel for ThinDielectric {
                 } else {
                     BsdfFlags::DELTA_TRANSMISSION
                 },
-                weight: self.0.specular_transmittance.eval(m, si),
+                weight: self.0.specular_transmittance,
             }
         })
     }
 
     #[inline]
-    fn eval(
-        &self,
-        _: &Materials,
-        _: &BsdfContext,
-        _: &SurfaceInteraction,
-        _: Vec3,
-        _: Vec3,
-    ) -> Rgb {
+    fn eval(&self, _: &BsdfContext, _: Vec3, _: Vec3) -> Rgb {
         Rgb::ZERO
     }
 
     #[inline]
-    fn pdf(&self, _: &Materials, _: &BsdfContext, _: &SurfaceInteraction, _: Vec3, _: Vec3) -> f32 {
+    fn pdf(&self, _: &BsdfContext, _: Vec3, _: Vec3) -> f32 {
         0.0
     }
 }
@@ -144,7 +149,8 @@ impl BsdfModel for ThinDielectric {
 pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{flat_si, Variant};
-    use crate::bsdf::Bsdf;
+    use crate::bsdf::BsdfModel;
+    use crate::bsdf::Material;
     use crate::texture::Tex;
 
     /// Lobe probabilities printed by Mitsuba 3.9.1 (`scalar_rgb`) for the
@@ -152,7 +158,7 @@ pub(crate) mod tests {
     /// [0.5, 0.5])`; the weights are 1 and η is 1 in both lobes and modes.
     #[test]
     fn matches_mitsuba() {
-        let t = Materials::with_bsdfs(vec![Bsdf::ThinDielectric(ThinDielectric::new(
+        let t = Materials::with_bsdfs(vec![Material::ThinDielectric(ThinDielectric::new(
             1.5046 / 1.000_277,
         ))]);
         let si = flat_si();
@@ -195,7 +201,7 @@ pub(crate) mod tests {
             .map(|eta| {
                 let mut v = Variant::last(
                     format!("thindielectric (η {eta})"),
-                    vec![Bsdf::ThinDielectric(ThinDielectric::new(eta))],
+                    vec![Material::ThinDielectric(ThinDielectric::new(eta))],
                 );
                 v.lossless = true;
                 v
@@ -203,7 +209,7 @@ pub(crate) mod tests {
             .collect();
         v.push(Variant::last(
             "thindielectric (tinted)",
-            vec![Bsdf::ThinDielectric(ThinDielectric(Dielectric {
+            vec![Material::ThinDielectric(ThinDielectric(Dielectric {
                 specular_reflectance: Tex::value(0.3),
                 specular_transmittance: Tex::Const(Rgb::new(0.2, 0.9, 0.5)),
                 ..Dielectric::new(1.5)

@@ -12,12 +12,10 @@
 //! When `wo` is below the surface, both directions are mirrored through
 //! the tangent plane and the back BSDF is used.
 
-use super::{Bsdf, BsdfContext, BsdfFlags, BsdfModel, BsdfSample};
-use crate::interaction::SurfaceInteraction;
+use super::{BsdfFlags, Material};
 use crate::material::Materials;
 use crate::params::{ParamError, Params};
-use crate::Rgb;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// Front and back BSDFs, by index in the scene's BSDF table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -28,8 +26,9 @@ pub struct TwoSided {
     pub back: u32,
 }
 
+/// `w` mirrored about the surface.
 #[inline]
-fn mirror(w: Vec3) -> Vec3 {
+pub(super) fn mirror(w: Vec3) -> Vec3 {
     Vec3::new(w.x, w.y, -w.z)
 }
 
@@ -38,7 +37,7 @@ impl TwoSided {
     /// and back).
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
         let kids = p.bsdfs()?;
-        if kids.iter().any(|(_, b)| matches!(b, Bsdf::TwoSided(_))) {
+        if kids.iter().any(|(_, b)| matches!(b, Material::TwoSided(_))) {
             return Err(p.error("a twosided BSDF cannot contain another twosided BSDF"));
         }
         match kids.as_slice() {
@@ -57,91 +56,21 @@ impl TwoSided {
         }
     }
 
-    fn side(&self, wo: Vec3) -> (u32, bool) {
+    /// The BSDF for `wo`'s side, and whether it is the back.
+    pub(super) fn side(&self, wo: Vec3) -> (u32, bool) {
         if wo.z >= 0.0 {
             (self.front, false)
         } else {
             (self.back, true)
         }
     }
-
-    /// The BSDF for `wo`'s side and the directions as that BSDF sees them
-    /// (mirrored to its front when `wo` is below the surface).
-    #[inline]
-    fn facing<'t>(&self, m: &'t Materials, wo: Vec3, wi: Vec3) -> (&'t Bsdf, Vec3, Vec3) {
-        match self.side(wo) {
-            (id, false) => (&m.bsdfs[id as usize], wo, wi),
-            (id, true) => (&m.bsdfs[id as usize], mirror(wo), mirror(wi)),
-        }
-    }
 }
 
-impl BsdfModel for TwoSided {
-    fn flags(&self, m: &Materials) -> BsdfFlags {
+impl TwoSided {
+    /// Lobes this material has.
+    pub fn flags(&self, m: &Materials) -> BsdfFlags {
         let f = m.bsdfs[self.front as usize].flags(m) | m.bsdfs[self.back as usize].flags(m);
         f | BsdfFlags::FRONT_SIDE | BsdfFlags::BACK_SIDE
-    }
-
-    #[inline]
-    fn sample(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        u1: f32,
-        u2: Vec2,
-    ) -> Option<BsdfSample> {
-        let (id, back) = self.side(wo);
-        let b = &m.bsdfs[id as usize];
-        if back {
-            b.sample(m, ctx, si, mirror(wo), u1, u2)
-                .map(|s| BsdfSample {
-                    wi: mirror(s.wi),
-                    ..s
-                })
-        } else {
-            b.sample(m, ctx, si, wo, u1, u2)
-        }
-    }
-
-    #[inline]
-    fn eval(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> Rgb {
-        let (b, wo, wi) = self.facing(m, wo, wi);
-        b.eval(m, ctx, si, wo, wi)
-    }
-
-    #[inline]
-    fn pdf(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> f32 {
-        let (b, wo, wi) = self.facing(m, wo, wi);
-        b.pdf(m, ctx, si, wo, wi)
-    }
-
-    #[inline]
-    fn eval_pdf(
-        &self,
-        m: &Materials,
-        ctx: &BsdfContext,
-        si: &SurfaceInteraction,
-        wo: Vec3,
-        wi: Vec3,
-    ) -> (Rgb, f32) {
-        let (b, wo, wi) = self.facing(m, wo, wi);
-        b.eval_pdf(m, ctx, si, wo, wi)
     }
 }
 
@@ -150,12 +79,13 @@ pub(crate) mod tests {
     use super::*;
     use crate::bsdf::tests::{albedo, check_bsdf, check_reciprocity, Variant};
     use crate::bsdf::Diffuse;
+    use crate::Rgb;
 
     fn table() -> Materials {
         Materials::with_bsdfs(vec![
-            Bsdf::Diffuse(Diffuse::new(Rgb::new(0.8, 0.4, 0.2))),
-            Bsdf::Diffuse(Diffuse::new(Rgb::new(0.1, 0.9, 0.3))),
-            Bsdf::TwoSided(TwoSided { front: 0, back: 1 }),
+            Material::Diffuse(Diffuse::new(Rgb::new(0.8, 0.4, 0.2))),
+            Material::Diffuse(Diffuse::new(Rgb::new(0.1, 0.9, 0.3))),
+            Material::TwoSided(TwoSided { front: 0, back: 1 }),
         ])
     }
 
@@ -182,8 +112,8 @@ pub(crate) mod tests {
         let mut white = Variant::last(
             "twosided (white diffuse)",
             vec![
-                Bsdf::Diffuse(Diffuse::new(Rgb::ONE)),
-                Bsdf::TwoSided(TwoSided { front: 0, back: 0 }),
+                Material::Diffuse(Diffuse::new(Rgb::ONE)),
+                Material::TwoSided(TwoSided { front: 0, back: 0 }),
             ],
         );
         white.lossless = true;

@@ -69,7 +69,7 @@
 //! integrator (aov)"; `BSDF::eval_diffuse_reflectance`.
 
 use super::{Integrator, Layer};
-use crate::bsdf::{Bsdf, BsdfContext, BsdfModel};
+use crate::bsdf::{BsdfContext, BsdfModel, Material};
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
 use crate::math::Ray;
@@ -278,7 +278,7 @@ pub fn albedo(scene: &RenderScene, si: &SurfaceInteraction) -> Rgb {
 /// recursion through wrappers.
 fn diffuse_reflectance(
     m: &Materials,
-    bsdf: &Bsdf,
+    bsdf: &Material,
     si: &SurfaceInteraction,
     wo: Vec3,
     depth: u32,
@@ -289,16 +289,16 @@ fn diffuse_reflectance(
         _ => Rgb::ZERO,
     };
     match bsdf {
-        Bsdf::Diffuse(b) => b.reflectance.eval(m, si),
-        Bsdf::Plastic(b) => b.diffuse_reflectance.eval(m, si),
-        Bsdf::RoughPlastic(b) => b.diffuse_reflectance.eval(m, si),
-        Bsdf::Principled(b) => b.common.base_color.eval(m, si),
-        Bsdf::PrincipledThin(b) => b.common.base_color.eval(m, si),
+        Material::Diffuse(b) => b.reflectance.eval(m, si),
+        Material::Plastic(b) => b.diffuse_reflectance.eval(m, si),
+        Material::RoughPlastic(b) => b.diffuse_reflectance.eval(m, si),
+        Material::Principled(b) => b.common.base_color.eval(m, si),
+        Material::PrincipledThin(b) => b.common.base_color.eval(m, si),
         // The side the camera sees, mirrored to that BSDF's front.
-        Bsdf::TwoSided(b) if wo.z >= 0.0 => nested(b.front, wo),
-        Bsdf::TwoSided(b) => nested(b.back, Vec3::new(wo.x, wo.y, -wo.z)),
-        Bsdf::BumpMap(b) => nested(b.nested, wo),
-        Bsdf::NormalMap(b) => nested(b.nested, wo),
+        Material::TwoSided(b) if wo.z >= 0.0 => nested(b.front, wo),
+        Material::TwoSided(b) => nested(b.back, Vec3::new(wo.x, wo.y, -wo.z)),
+        Material::BumpMap(b) => nested(b.nested, wo),
+        Material::NormalMap(b) => nested(b.nested, wo),
         other => other.eval(m, &BsdfContext::default(), si, wo, Vec3::Z) * std::f32::consts::PI,
     }
 }

@@ -16,7 +16,7 @@
 //! ```
 
 use super::{environment_radiance, sample_light, surface_emission, Integrator, RayOrigin};
-use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel};
+use crate::bsdf::{BsdfContext, BsdfFlags};
 use crate::light::LightSelection;
 use crate::math::Ray;
 use crate::params::{ParamError, Params};
@@ -92,21 +92,21 @@ impl Integrator for DirectIntegrator {
         } else {
             surface_emission(scene, &si, &RayOrigin::camera(ray.o))
         };
-        let bsdf = scene.bsdf_of(si.shape);
         let wo = si.to_local(si.wo);
+        let bsdf = scene.bsdf_of(si.shape).at(&scene.materials, &si, wo);
         let (ne, nb) = (self.emitter_samples as f32, self.bsdf_samples as f32);
         if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) && self.emitter_samples > 0 {
             for _ in 0..self.emitter_samples {
                 // The ratio ne/nb turns the count-weighted power heuristic
                 // into the one-sample form sample_light computes.
-                l += sample_light(scene, &si, bsdf, wo, sampler, ne / nb.max(1e-9), 0) / ne;
+                l += sample_light(scene, &si, &bsdf, sampler, ne / nb.max(1e-9), 0) / ne;
             }
         }
         let ctx = BsdfContext::default();
         for _ in 0..self.bsdf_samples {
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
-            let Some(bs) = bsdf.sample(&scene.materials, &ctx, &si, wo, u1, u2) else {
+            let Some(bs) = bsdf.sample(&ctx, u1, u2) else {
                 continue;
             };
             let delta = bs.sampled.intersects(BsdfFlags::DELTA);

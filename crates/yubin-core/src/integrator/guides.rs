@@ -18,7 +18,7 @@
 //! film's filter, like the image.
 
 use super::{aov, environment_radiance, Integrator, Layer, RayOrigin};
-use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel};
+use crate::bsdf::{BsdfContext, BsdfFlags};
 use crate::math::Ray;
 use crate::render::RenderScene;
 use crate::sampler::SampleStream;
@@ -94,7 +94,6 @@ impl DenoiserGuides {
                 };
             };
             let depth = *depth.get_or_insert((si.t - camera_ray.t_min) * camera_ray.d.length());
-            let bsdf = scene.bsdf_of(si.shape);
             let flags = scene.bsdf_flags_of(si.shape);
             if flags.intersects(BsdfFlags::SMOOTH) {
                 return FirstHit {
@@ -106,7 +105,8 @@ impl DenoiserGuides {
             let wo = si.to_local(si.wo);
             // The last lobe, the same every sample: guides without noise.
             let (u1, u2) = (1.0 - f32::EPSILON, glam::Vec2::splat(0.5));
-            let Some(bs) = bsdf.sample(&scene.materials, &ctx, &si, wo, u1, u2) else {
+            let bsdf = scene.bsdf_of(si.shape).at(&scene.materials, &si, wo);
+            let Some(bs) = bsdf.sample(&ctx, u1, u2) else {
                 return FirstHit {
                     albedo: Rgb::ZERO,
                     normal: si.sh_frame.n,

@@ -421,13 +421,12 @@ pub(crate) fn sample_light(
     scene: &RenderScene,
     si: &SurfaceInteraction,
     bsdf: &crate::bsdf::Bsdf,
-    wo_local: Vec3,
     sampler: &mut SampleStream,
     light_count_ratio: f32,
     max_crossings: u32,
 ) -> Rgb {
-    let at = bsdf.at(&scene.materials, si, wo_local);
-    let eval = |wi, mis| at.eval_pdf_if(wi, mis);
+    let ctx = crate::bsdf::BsdfContext::default();
+    let eval = |wi, mis| bsdf.eval_pdf_if(&ctx, wi, mis);
     sample_light_unshadowed_by(scene, si, sampler, light_count_ratio, eval)
         .map_or(Rgb::ZERO, |l| l.shadowed(scene, max_crossings))
 }

@@ -46,7 +46,7 @@ use super::{
     PickedLightSample, RayOrigin, UnshadowedSample,
 };
 use crate::accel::PACKET_RAYS;
-use crate::bsdf::{BsdfFlags, BsdfSample};
+use crate::bsdf::{BsdfContext, BsdfFlags, BsdfSample};
 use crate::interaction::SurfaceInteraction;
 use crate::light::{LightChoice, LightSelection};
 use crate::math::spawn_ray;
@@ -415,19 +415,19 @@ impl PathIntegrator {
         sampler: &mut SampleStream,
         shadows: Option<(&mut Shadows, usize)>,
     ) -> bool {
-        let bsdf = scene.bsdf_of(si.shape);
         let wo = si.to_local(si.wo);
-        // Terms of the vertex and wo alone, computed once for both samples.
-        let at = bsdf.at(&scene.materials, si, wo);
+        // The BSDF at the vertex, made once for both samples.
+        let bsdf = scene.bsdf_of(si.shape).at(&scene.materials, si, wo);
+        let ctx = BsdfContext::default();
         if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) {
-            let eval = |wi, mis| at.eval_pdf_if(wi, mis);
+            let eval = |wi, mis| bsdf.eval_pdf_if(&ctx, wi, mis);
             if let Some(l) = sample_light_unshadowed_by(scene, si, sampler, 1.0, eval) {
                 self.add_light_sample(scene, path, &l, shadows);
             }
         }
         let u1 = sampler.next_1d();
         let u2 = sampler.next_2d();
-        let Some(bs) = at.sample(u1, u2) else {
+        let Some(bs) = bsdf.sample(&ctx, u1, u2) else {
             return false;
         };
         let wi = si.to_world(bs.wi);
@@ -587,7 +587,7 @@ impl PathIntegrator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::{Bsdf, Dielectric, Diffuse, TwoSided};
+    use crate::bsdf::{Dielectric, Diffuse, Material, TwoSided};
     use crate::camera::{Camera, FovAxis, Perspective};
     use crate::math::Transform;
     use crate::render::RenderState;
@@ -599,8 +599,8 @@ mod tests {
     /// sphere, and a two-sided panel.
     fn room() -> Scene {
         let mut b = SceneBuilder::new();
-        let white = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::splat(0.7))));
-        let glass = b.add_bsdf(Bsdf::Dielectric(Dielectric::new(1.5)));
+        let white = b.add_bsdf(Material::Diffuse(Diffuse::new(Rgb::splat(0.7))));
+        let glass = b.add_bsdf(Material::Dielectric(Dielectric::new(1.5)));
         // A checkered wall: a textured reflectance, evaluated per vertex.
         let checks = b.add_texture(crate::texture::Texture::Checkerboard(
             crate::texture::Checkerboard {
@@ -609,7 +609,7 @@ mod tests {
                 to_uv: glam::Affine2::from_scale(glam::Vec2::splat(5.0)),
             },
         ));
-        let checkered = b.add_bsdf(Bsdf::Diffuse(Diffuse {
+        let checkered = b.add_bsdf(Material::Diffuse(Diffuse {
             reflectance: crate::texture::Tex::Texture(checks),
         }));
         let wall =
@@ -648,9 +648,9 @@ mod tests {
         b.add_shape(glow, None, Some(Rgb::new(4.0, 6.0, 8.0).into()))
             .unwrap();
         // A panel seen from both sides, each with its own colour.
-        let front = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::new(0.2, 0.6, 0.3))));
-        let back = b.add_bsdf(Bsdf::Diffuse(Diffuse::new(Rgb::new(0.8, 0.3, 0.1))));
-        let panel = b.add_bsdf(Bsdf::TwoSided(TwoSided { front, back }));
+        let front = b.add_bsdf(Material::Diffuse(Diffuse::new(Rgb::new(0.2, 0.6, 0.3))));
+        let back = b.add_bsdf(Material::Diffuse(Diffuse::new(Rgb::new(0.8, 0.3, 0.1))));
+        let panel = b.add_bsdf(Material::TwoSided(TwoSided { front, back }));
         let panel_at = Affine3A::from_translation(Vec3::new(-0.5, 0.1, 0.0))
             * Affine3A::from_rotation_y(2.6)
             * Affine3A::from_scale(Vec3::splat(0.3));

@@ -46,7 +46,7 @@
 //! nested in `aov` or `moment`.
 
 use super::{max_depth_param, sample_chosen_light, Integrator};
-use crate::bsdf::{BsdfContext, BsdfFlags, BsdfModel, TransportMode};
+use crate::bsdf::{BsdfContext, BsdfFlags, TransportMode};
 use crate::film::SplatImage;
 use crate::interaction::SurfaceInteraction;
 use crate::light::{EmitterModel, SceneSphere};
@@ -270,15 +270,15 @@ impl ParticleTracer {
                 break;
             };
             let si = scene.interaction_at(&ray, &hit);
-            let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
+            let bsdf = scene.bsdf_of(si.shape).at(&scene.materials, &si, wo);
             if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) {
                 let u_lens = lens_sample(scene, sampler);
-                self.connect_to_camera(scene, &si, bsdf, wo, beta, depth, u_lens, out);
+                self.connect_to_camera(scene, &si, &bsdf, beta, depth, u_lens, out);
             }
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
-            let Some(bs) = bsdf.sample(&scene.materials, &ctx, &si, wo, u1, u2) else {
+            let Some(bs) = bsdf.sample(&ctx, u1, u2) else {
                 break;
             };
             let wi = si.to_world(bs.wi);
@@ -306,7 +306,6 @@ impl ParticleTracer {
         scene: &RenderScene,
         si: &SurfaceInteraction,
         bsdf: &crate::bsdf::Bsdf,
-        wo: Vec3,
         beta: Rgb,
         depth: u32,
         u_lens: Vec2,
@@ -319,7 +318,7 @@ impl ParticleTracer {
             mode: TransportMode::Importance,
             ..BsdfContext::default()
         };
-        let f = bsdf.eval(&scene.materials, &ctx, si, wo, si.to_local(sensor.wi));
+        let f = bsdf.eval(&ctx, si.to_local(sensor.wi));
         if f == Rgb::ZERO {
             return;
         }

@@ -44,7 +44,7 @@
 
 use super::{environment_emission, max_depth_param, sample_chosen_light, surface_emission_with};
 use super::{Integrator, RayOrigin};
-use crate::bsdf::{Bsdf, BsdfContext, BsdfFlags, BsdfModel};
+use crate::bsdf::{Bsdf, BsdfContext, BsdfFlags};
 use crate::interaction::SurfaceInteraction;
 use crate::light::{EmitterSample, LightSelection};
 use crate::math::{spawn_ray, Ray, SHADOW_EPSILON};
@@ -283,7 +283,6 @@ impl VolPathIntegrator {
         path: &PathWeight,
         si: &SurfaceInteraction,
         bsdf: &Bsdf,
-        wo: Vec3,
         medium: Option<u32>,
         sampler: &mut SampleStream,
     ) -> Rgb {
@@ -292,7 +291,7 @@ impl VolPathIntegrator {
         };
         let ctx = volpath_context();
         let wi = si.to_local(s.ls.wi);
-        let f = bsdf.eval(&scene.materials, &ctx, si, wo, wi);
+        let f = bsdf.eval(&ctx, wi);
         if f == Rgb::ZERO {
             return Rgb::ZERO;
         }
@@ -306,7 +305,7 @@ impl VolPathIntegrator {
         if sh.total() == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        let pdf = bsdf.pdf(&scene.materials, &ctx, si, wo, wi);
+        let pdf = bsdf.pdf(&ctx, wi);
         self.weigh(path, &s, f, pdf, sh)
     }
 
@@ -539,15 +538,15 @@ impl Integrator for VolPathIntegrator {
             if !hidden {
                 l += surface_emission_with(scene, &si, &mis_origin, weigh);
             }
-            let bsdf = scene.bsdf_of(si.shape);
             let wo = si.to_local(si.wo);
+            let bsdf = scene.bsdf_of(si.shape).at(&scene.materials, &si, wo);
             if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) && depth + 1 < max_depth
             {
-                l += self.light_from_surface(scene, &path, &si, bsdf, wo, medium, sampler);
+                l += self.light_from_surface(scene, &path, &si, &bsdf, medium, sampler);
             }
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
-            let Some(bs) = bsdf.sample(&scene.materials, &ctx, &si, wo, u1, u2) else {
+            let Some(bs) = bsdf.sample(&ctx, u1, u2) else {
                 break;
             };
             path.beta *= bs.weight;

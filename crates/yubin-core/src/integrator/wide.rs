@@ -26,7 +26,7 @@
 //! [`crate::sampling::square_to_cosine_hemisphere`]). Shadow rays, the
 //! sampler's numbers and everything else stay per lane.
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::Material;
 use crate::interaction::SurfaceInteraction;
 use crate::light::{Emitter, EmitterOptions};
 use crate::material::Materials;
@@ -61,13 +61,13 @@ pub(crate) struct DiffuseSides {
 impl DiffuseSides {
     /// The sides of `bsdf` when it is such a BSDF (a render keeps them
     /// per BSDF: [`WideTables`]).
-    pub fn of(materials: &Materials, bsdf: &Bsdf) -> Option<Self> {
-        let reflectance = |b: &Bsdf| match b {
-            Bsdf::Diffuse(d) => Some(d.reflectance),
+    pub fn of(materials: &Materials, bsdf: &Material) -> Option<Self> {
+        let reflectance = |b: &Material| match b {
+            Material::Diffuse(d) => Some(d.reflectance),
             _ => None,
         };
         match bsdf {
-            Bsdf::TwoSided(t) => Some(Self {
+            Material::TwoSided(t) => Some(Self {
                 front: reflectance(&materials.bsdfs[t.front as usize])?,
                 back: Some(reflectance(&materials.bsdfs[t.back as usize])?),
             }),

@@ -212,7 +212,7 @@ pub trait Params {
     }
     /// Every nested BSDF, built into the scene's BSDF table, in the order
     /// written: its index and (a copy of) what was built.
-    fn bsdfs(&mut self) -> Result<Vec<(u32, crate::bsdf::Bsdf)>, ParamError>;
+    fn bsdfs(&mut self) -> Result<Vec<(u32, crate::bsdf::Material)>, ParamError>;
     /// Loads the image file named by string parameter `name` into the
     /// scene's image table (each file once) and returns its index.
     fn image(&mut self, name: &str) -> Result<Option<u32>, ParamError>;

@@ -14,7 +14,7 @@
 //! mesh file cannot be re-read at all (mesh shapes are not recorded).
 
 use super::{check_color, ColorKind, Family, NamedChild, ParamError, Params};
-use crate::bsdf::Bsdf;
+use crate::bsdf::Material;
 use crate::material::Materials;
 use crate::medium::Grid;
 use crate::texture::Tex;
@@ -667,7 +667,7 @@ impl Params for Recorder<'_> {
         self.record.other.push(Other::NestedTextures(t.clone()));
         Ok(t)
     }
-    fn bsdfs(&mut self) -> Result<Vec<(u32, Bsdf)>, ParamError> {
+    fn bsdfs(&mut self) -> Result<Vec<(u32, Material)>, ParamError> {
         let b = self.inner.get().bsdfs()?;
         (self.record.other).push(Other::Bsdfs(b.iter().map(|(i, _)| *i).collect()));
         Ok(b)
@@ -830,7 +830,7 @@ impl Params for Replay<'_> {
     fn nested_textures(&mut self) -> Result<Vec<Tex>, ParamError> {
         Ok(self.record.nested_textures().unwrap_or_default().to_vec())
     }
-    fn bsdfs(&mut self) -> Result<Vec<(u32, Bsdf)>, ParamError> {
+    fn bsdfs(&mut self) -> Result<Vec<(u32, Material)>, ParamError> {
         let indices = self.record.bsdfs().unwrap_or_default();
         indices
             .iter()
@@ -866,13 +866,13 @@ mod tests {
         found.expect("a BSDF plugin").1
     }
 
-    fn recorded(name: &str, p: &mut MapParams) -> (Bsdf, Record) {
+    fn recorded(name: &str, p: &mut MapParams) -> (Material, Record) {
         let mut record = Record::default();
         let b = plugin(name)(&mut Recorder::new(p, &mut record)).unwrap();
         (b, record)
     }
 
-    fn replayed(name: &str, record: &Record) -> Result<Bsdf, ParamError> {
+    fn replayed(name: &str, record: &Record) -> Result<Material, ParamError> {
         let m = Materials::default();
         plugin(name)(&mut Replay::new(record, &m))
     }

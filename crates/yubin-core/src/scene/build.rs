@@ -9,7 +9,7 @@ use super::parameters::{EditTarget, Editable, Edits, GroupEntry};
 use super::traversal::{triangle_of_id, Group, Instance, Item, TriangleRun};
 use super::{Scene, ShapeEmitter, ShapeInfo};
 use crate::accel::{Bvh, PrimCost};
-use crate::bsdf::{Bsdf, BsdfModel, Diffuse};
+use crate::bsdf::{Diffuse, Material};
 use crate::camera::{Camera, FovAxis, Perspective};
 use crate::film::Film;
 use crate::light::{Emitter, EmitterOptions};
@@ -42,6 +42,15 @@ pub enum BuildError {
         /// Primitives in the group.
         count: usize,
     },
+    /// A composite BSDF nesting more BSDFs than the BSDF at a vertex holds
+    /// ([`crate::bsdf::MAX_NODES`] nodes, [`crate::bsdf::MAX_LOBES`]
+    /// single models).
+    CompositeTooLarge {
+        /// The BSDF.
+        bsdf: u32,
+        /// Nodes and single models it resolves to.
+        size: (usize, usize),
+    },
 }
 
 impl std::fmt::Display for BuildError {
@@ -59,6 +68,15 @@ impl std::fmt::Display for BuildError {
                 "{count} primitives in one group are more than one BVH can hold \
                  (at most {} leaf positions); split the geometry into shape groups",
                 crate::accel::MAX_POSITIONS
+            ),
+            BuildError::CompositeTooLarge { bsdf, size } => write!(
+                f,
+                "composite BSDF {bsdf} nests {} BSDFs, {} of them single models; the BSDF \
+                 at a vertex holds at most {} nested BSDFs and {} single models",
+                size.0,
+                size.1,
+                crate::bsdf::MAX_NODES,
+                crate::bsdf::MAX_LOBES
             ),
         }
     }
@@ -134,7 +152,7 @@ impl SceneBuilder {
     }
 
     /// Adds a BSDF; returns its index (for shapes and composite BSDFs).
-    pub fn add_bsdf(&mut self, b: Bsdf) -> u32 {
+    pub fn add_bsdf(&mut self, b: Material) -> u32 {
         self.materials.add_bsdf(b)
     }
 
@@ -156,12 +174,12 @@ impl SceneBuilder {
     }
 
     /// The BSDF at `index`, if there is one (what a front end built).
-    pub fn bsdf(&self, index: u32) -> Option<&Bsdf> {
+    pub fn bsdf(&self, index: u32) -> Option<&Material> {
         self.materials.bsdfs.get(index as usize)
     }
 
     /// True when BSDF `index` reads a normal map in MikkTSpace
-    /// ([`Bsdf::needs_mikktspace`]).
+    /// ([`Material::needs_mikktspace`]).
     pub fn needs_mikktspace(&self, index: u32) -> bool {
         self.bsdf(index)
             .is_some_and(|b| b.needs_mikktspace(&self.materials))
@@ -265,9 +283,9 @@ impl SceneBuilder {
             // Mitsuba's default: grey diffuse, black on emitters (a light
             // without a BSDF reflects nothing).
             None if radiance.is_some() => {
-                self.add_bsdf(Bsdf::Diffuse(Diffuse::new(crate::Rgb::ZERO)))
+                self.add_bsdf(Material::Diffuse(Diffuse::new(crate::Rgb::ZERO)))
             }
-            None => self.add_bsdf(Bsdf::Diffuse(Diffuse::default())),
+            None => self.add_bsdf(Material::Diffuse(Diffuse::default())),
         };
         let id = self.shapes.len() as u32;
         let (emitter, grouped) = if group == 0 {
@@ -512,10 +530,11 @@ impl SceneBuilder {
     }
 
     /// Checks that the BSDFs a `twosided` refers to exist (the other
-    /// indices were checked as they were added).
+    /// indices were checked as they were added), and that every composite
+    /// fits the BSDF at a vertex.
     fn check_bsdf_references(&self) -> Result<(), BuildError> {
         for b in &self.materials.bsdfs {
-            if let Bsdf::TwoSided(t) = b {
+            if let Material::TwoSided(t) = b {
                 for index in [t.front, t.back] {
                     if index as usize >= self.materials.bsdfs.len() {
                         return Err(BuildError::BadIndex {
@@ -525,6 +544,16 @@ impl SceneBuilder {
                     }
                 }
             }
+        }
+        (0..self.materials.bsdfs.len() as u32).try_for_each(|i| self.check_composite_size(i))
+    }
+
+    /// Checks that BSDF `bsdf` (an index already checked) fits the BSDF at
+    /// a vertex ([`crate::bsdf::MAX_NODES`], [`crate::bsdf::MAX_LOBES`]).
+    pub fn check_composite_size(&self, bsdf: u32) -> Result<(), BuildError> {
+        let size = self.materials.bsdfs[bsdf as usize].tree_size(&self.materials);
+        if size.0 > crate::bsdf::MAX_NODES || size.1 > crate::bsdf::MAX_LOBES {
+            return Err(BuildError::CompositeTooLarge { bsdf, size });
         }
         Ok(())
     }
@@ -829,7 +858,7 @@ mod tests {
         let scene = b.build().unwrap();
         let reflectance =
             |shape: usize| match scene.materials.bsdfs[scene.shape_info[shape].bsdf as usize] {
-                Bsdf::Diffuse(d) => d.reflectance,
+                Material::Diffuse(d) => d.reflectance,
                 other => panic!("{other:?}"),
             };
         assert_eq!(

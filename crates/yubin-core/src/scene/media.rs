@@ -7,7 +7,7 @@
 
 use super::traversal::to_local_ray;
 use super::{Scene, ShadowHit};
-use crate::bsdf::Bsdf;
+use crate::bsdf::Material;
 use crate::interaction::SurfaceInteraction;
 use crate::math::Ray;
 use crate::shape::ShapeModel;
@@ -21,7 +21,7 @@ impl Scene {
     }
 
     /// Whether light may pass straight through shape `shape`
-    /// ([`Bsdf::lets_light_through`]).
+    /// ([`Material::lets_light_through`]).
     #[inline]
     pub fn lets_light_through(&self, shape: u32) -> bool {
         self.bsdf_of(shape).lets_light_through(&self.materials)
@@ -37,7 +37,7 @@ impl Scene {
         if !bsdf.lets_light_through(&self.materials) {
             return Some(ShadowHit::Opaque);
         }
-        if !matches!(bsdf, Bsdf::Null(_)) {
+        if !matches!(bsdf, Material::Null(_)) {
             return Some(ShadowHit::Surface(self.interaction(ray, &h)));
         }
         let shape = &self.shapes[h.shape as usize];

@@ -33,7 +33,7 @@ mod traversal;
 pub use build::{BuildError, SceneBuilder};
 pub use parameters::{EditTarget, Editable, RebuildCounts};
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::Material;
 use crate::camera::Camera;
 use crate::film::Film;
 use crate::interaction::SurfaceInteraction;
@@ -180,7 +180,7 @@ pub struct Scene {
     /// (shape in a group, its world copy in one instance), for each
     /// emitting shape of each instance (`Instance::placed_emitters`).
     placed_emitters: Vec<(u32, u32)>,
-    /// [`BsdfModel::flags`](crate::bsdf::BsdfModel::flags) of each BSDF
+    /// [`Material::flags`](crate::bsdf::Material::flags) of each BSDF
     /// of [`Materials::bsdfs`], asked at every bounce: taken once (nested
     /// BSDFs ask theirs recursively).
     bsdf_flags: Vec<crate::bsdf::BsdfFlags>,
@@ -188,7 +188,7 @@ pub struct Scene {
     /// may have to look past their first hit.
     has_pass_through: bool,
     /// Some shape lets light straight through with `thindielectric` slabs
-    /// counted ([`Bsdf::lets_light_through`]).
+    /// counted ([`Material::lets_light_through`]).
     has_null_transmission: bool,
     /// Nothing reads a hit's uv: the scene has no textures and its
     /// integrator writes no uv ([`SceneBuilder::uv_unread_by_integrator`]);
@@ -196,7 +196,7 @@ pub struct Scene {
     uv_unread: bool,
     /// Per shape, whether its hits may take any shading frame about the
     /// normal: nothing reads uv (`uv_unread`) and its BSDF turns freely
-    /// ([`Bsdf::turns_freely`]); spheres and disks then build theirs from
+    /// ([`Material::turns_freely`]); spheres and disks then build theirs from
     /// the normal alone ([`crate::shape::Sphere::interaction_free_frame`]).
     free_frame: Vec<bool>,
     /// Editable objects and what updates rebuild ([`Scene::update`]).
@@ -218,12 +218,12 @@ impl Scene {
 
     /// The BSDF of a shape.
     #[inline]
-    pub fn bsdf_of(&self, shape: u32) -> &Bsdf {
+    pub fn bsdf_of(&self, shape: u32) -> &Material {
         &self.materials.bsdfs[self.shape_info[shape as usize].bsdf as usize]
     }
 
     /// The flags of a shape's BSDF
-    /// ([`BsdfModel::flags`](crate::bsdf::BsdfModel::flags)), as
+    /// ([`Material::flags`](crate::bsdf::Material::flags)), as
     /// [`SceneBuilder::build`] took them: a scene whose BSDFs change is
     /// built again.
     #[inline]

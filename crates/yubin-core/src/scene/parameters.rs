@@ -52,7 +52,6 @@ use super::build::{
 };
 use super::traversal::Item;
 use super::Scene;
-use crate::bsdf::BsdfModel;
 use crate::camera::Sensor;
 use crate::light::{AreaLight, DirectionalAreaLight, Emitter, EmitterOptions};
 use crate::params::{

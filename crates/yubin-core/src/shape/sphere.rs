@@ -177,13 +177,13 @@ impl Sphere {
     /// [`Sphere::interaction_without_uv`] with the shading frame built
     /// from the normal alone ([`Frame::from_normal`]) and ∂p/∂u, ∂p/∂v set
     /// to its unit tangents, for a sphere whose BSDF turns freely about
-    /// the normal ([`Bsdf::turns_freely`]) in a scene where nothing reads
+    /// the normal ([`Material::turns_freely`]) in a scene where nothing reads
     /// uv or the derivatives: the turned frame gives the same
     /// distribution of samples (other samples, so other images, alike in
     /// the mean) for two square roots and two divisions fewer per hit.
     ///
     /// [`Frame::from_normal`]: crate::math::Frame::from_normal
-    /// [`Bsdf::turns_freely`]: crate::bsdf::Bsdf::turns_freely
+    /// [`Material::turns_freely`]: crate::bsdf::Material::turns_freely
     #[inline]
     pub(crate) fn interaction_free_frame(&self, ray: &Ray, hit: PrimHit) -> SurfaceInteraction {
         let outward = (ray.at(hit.t) - self.center).normalize();

@@ -2,7 +2,7 @@
 //! named values, with the same "read marks" a scene front end keeps, so a
 //! test can assert that a plugin read everything it was given.
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::Material;
 use crate::params::{ColorKind, ParamError, Params};
 use crate::texture::Tex;
 use crate::Rgb;
@@ -176,7 +176,7 @@ impl Params for MapParams {
         }
         Ok(Params::color(self, name, kind)?.map(Tex::Const))
     }
-    fn bsdfs(&mut self) -> Result<Vec<(u32, Bsdf)>, ParamError> {
+    fn bsdfs(&mut self) -> Result<Vec<(u32, Material)>, ParamError> {
         Ok(Vec::new())
     }
     fn image(&mut self, name: &str) -> Result<Option<u32>, ParamError> {
