@@ -29,10 +29,10 @@ fn blends_nest_as_far_as_the_bsdf_holds() {
 fn blends_nested_further_are_refused_with_their_line() {
     let depth = yubin_core::bsdf::MAX_LOBES;
     let text = nested_blends(depth);
-    let err = load_scene_str(&text, Path::new("scene.xml"), &[])
-        .err()
-        .expect("too deep a composite must not load")
-        .to_string();
+    let Err(err) = load_scene_str(&text, Path::new("scene.xml"), &[]) else {
+        panic!("too deep a composite must not load");
+    };
+    let err = err.to_string();
     // The outermost blend (line 3) is the first too large.
     assert!(
         err.contains("scene.xml:3") && err.contains("single models"),

@@ -88,7 +88,7 @@ impl Scatter for DiffTransLobe {
             wi.z = -wi.z;
         }
         let pdf = wi.z.abs() * FRAC_1_PI;
-        (pdf > 0.0).then(|| BsdfSample {
+        (pdf > 0.0).then_some(BsdfSample {
             wi,
             pdf,
             eta: 1.0,

@@ -323,8 +323,10 @@ impl Tree {
     }
 }
 
-/// What the BSDF at a vertex is made of.
+/// What the BSDF at a vertex is made of. The tree is large and kept
+/// inline (no allocation per vertex); a single model writes only its lobe.
 #[derive(Clone, Copy, Debug)]
+#[allow(clippy::large_enum_variant)]
 enum Resolved {
     /// A single model (the common case, kept small).
     One(Lobe),
@@ -456,8 +458,8 @@ impl Bsdf {
     }
 }
 
-// Node and lobe indices are u8, with NONE kept free.
-const _: () = assert!(MAX_NODES < NONE as usize && MAX_LOBES < NONE as usize);
+// Node indices are u8, with NONE kept free (lobes are fewer than nodes).
+const _: () = assert!(MAX_NODES < NONE as usize && MAX_LOBES <= MAX_NODES);
 
 #[cfg(test)]
 pub(crate) mod tests {
