@@ -130,17 +130,22 @@ pub(crate) mod tests {
                 }),
             ],
         );
-        v.m.images.push(
+        push_ramp_height(&mut v.m);
+        v
+    }
+
+    /// Adds texture 0 (the first image): the height h = u over one tile.
+    pub(crate) fn push_ramp_height(m: &mut Materials) {
+        m.images.push(
             TexImage::new(4, 1, 1, ImageData::F32(vec![0.0, 0.25, 0.5, 0.75]), false).unwrap(),
         );
-        v.m.textures.push(Texture::Bitmap(Bitmap {
+        m.textures.push(Texture::Bitmap(Bitmap {
             image: 0,
             filter: FilterType::Bilinear,
             wrap: WrapMode::Clamp,
             raw: true,
             to_uv: glam::Affine2::IDENTITY,
         }));
-        v
     }
 
     /// Configurations for the table-driven tests in `bsdf/mod.rs`.

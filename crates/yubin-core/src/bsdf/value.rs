@@ -467,8 +467,7 @@ pub(crate) mod tests {
     use crate::bsdf::microfacet::{MicrofacetType, Roughness};
     use crate::bsdf::tests::{flat_si, Variant};
     use crate::bsdf::{BlendBsdf, BumpMap, Diffuse, Mask, RoughDielectric, RoughPlastic, TwoSided};
-    use crate::texture::image::ImageData;
-    use crate::texture::{Bitmap, FilterType, Tex, TexImage, Texture, WrapMode};
+    use crate::texture::Tex;
 
     /// The BSDF at a vertex is made at every bounce: a lobe stays a few
     /// cache lines, and a single model's BSDF writes no more than its lobe
@@ -527,16 +526,7 @@ pub(crate) mod tests {
                 Material::TwoSided(TwoSided { front: 4, back: 0 }),
             ],
         );
-        v.m.images.push(
-            TexImage::new(4, 1, 1, ImageData::F32(vec![0.0, 0.25, 0.5, 0.75]), false).unwrap(),
-        );
-        v.m.textures.push(Texture::Bitmap(Bitmap {
-            image: 0,
-            filter: FilterType::Bilinear,
-            wrap: WrapMode::Clamp,
-            raw: true,
-            to_uv: glam::Affine2::IDENTITY,
-        }));
+        crate::bsdf::bump_map::tests::push_ramp_height(&mut v.m);
         // The bump map replaces the shading normal; the glass refracts.
         v.reciprocal = false;
         vec![v]
