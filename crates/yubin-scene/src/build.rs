@@ -195,8 +195,8 @@ impl Recorded {
 /// The builder's state: the scene under construction and what has been
 /// built of the description (shared objects are built once).
 pub(crate) struct Builder<'a> {
-    desc: &'a SceneDesc,
-    sb: SceneBuilder,
+    pub(crate) desc: &'a SceneDesc,
+    pub(crate) sb: SceneBuilder,
     bsdfs: HashMap<*const Object, u32>,
     textures: HashMap<*const Object, u32>,
     images: HashMap<PathBuf, u32>,
@@ -522,6 +522,7 @@ impl Builder<'_> {
                 self.shape_group(obj)?;
                 return Ok(());
             }
+            "gltf" => return self.gltf_shape(obj, group),
             "instance" => {
                 if group != 0 {
                     return Err(obj.error("instances cannot be placed inside shape groups"));

@@ -9,6 +9,7 @@
 pub mod build;
 pub mod desc;
 pub mod error;
+pub mod gltf;
 pub mod image_io;
 pub mod mesh;
 pub mod ocio;

@@ -24,7 +24,8 @@ const CORNELL_BOX: &str = include_str!("../../../scenes/cornell-box.xml");
 /// Arguments of `yubin render`.
 #[derive(Debug, clap::Args)]
 pub struct RenderArgs {
-    /// Scene file (Mitsuba 3 XML). Without one, the built-in Cornell box.
+    /// Scene file: Mitsuba 3 XML, or glTF 2.0 (.gltf, .glb). Without one,
+    /// the built-in Cornell box.
     scene: Option<PathBuf>,
     /// Output image: .exr (linear float32, with any extra layers) or .png
     /// (8-bit sRGB). Default: the scene's name with .exr, or
@@ -37,6 +38,17 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// glTF scenes: an environment map (lat-long EXR/HDR/PNG) lighting the
+    /// model (default: the file's lights, else a white environment).
+    #[arg(long, value_name = "HDRI")]
+    env: Option<PathBuf>,
+    /// glTF scenes: image width in pixels (default 1024).
+    #[arg(long)]
+    width: Option<u32>,
+    /// glTF scenes: image height (default: from the width and the camera's
+    /// aspect ratio, else 4:3).
+    #[arg(long)]
+    height: Option<u32>,
     /// Seed of the sample sequence (default: the scene's sampler seed).
     #[arg(long)]
     seed: Option<u32>,
@@ -544,7 +556,24 @@ fn check_writable_dir(path: &Path) -> Result<()> {
 
 fn load(args: &RenderArgs) -> Result<(LoadedScene, PathBuf)> {
     match &args.scene {
+        Some(path) if yubin_scene::gltf::is_gltf(path) => {
+            let options = yubin_scene::gltf::GltfOptions {
+                width: args.width,
+                height: args.height,
+                spp: args.spp,
+                env: args.env.clone(),
+            };
+            let loaded = yubin_scene::gltf::load_gltf(path, &options)?;
+            let default_out = Path::new(path.file_stem().unwrap_or_default()).with_extension("exr");
+            Ok((loaded, args.output.clone().unwrap_or(default_out)))
+        }
         Some(path) => {
+            if args.env.is_some() || args.width.is_some() || args.height.is_some() {
+                anyhow::bail!(
+                    "--env, --width and --height are for glTF scenes; an XML scene sets its \
+                     film and emitters (use -D with its <default>s)"
+                );
+            }
             let loaded = load_scene(path, &args.define)?;
             let default_out = Path::new(path.file_stem().unwrap_or_default()).with_extension("exr");
             Ok((loaded, args.output.clone().unwrap_or(default_out)))

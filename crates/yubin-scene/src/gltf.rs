@@ -1,0 +1,841 @@
+//! glTF 2.0 scenes (`.gltf` with its buffers and images, or `.glb`):
+//! `yubin render model.glb`, and `<shape type="gltf">` to place a model in
+//! a Mitsuba XML scene.
+//!
+//! | parameter  | type      | default  | meaning |
+//! |------------|-----------|----------|---------|
+//! | `filename` | string    | —        | the `.gltf` or `.glb` file |
+//! | `to_world` | transform | identity | placed before the model's own node transforms |
+//!
+//! ```xml
+//! <shape type="gltf">
+//!     <string name="filename" value="WaterBottle.glb"/>
+//!     <transform name="to_world"><scale value="10"/></transform>
+//! </shape>
+//! ```
+//!
+//! What is read, from the file's default scene (else its first):
+//! - **Nodes**: the hierarchy with TRS or matrices. A mesh that several
+//!   nodes use is built once in a shape group and placed by instances
+//!   (inside a `shapegroup`, where instances cannot nest, it is copied).
+//! - **Meshes**: triangle primitives (other modes are skipped with a
+//!   warning): positions, normals, `TEXCOORD_0`, indices (glTF's uv has
+//!   its origin at the image's top left, as Mitsuba's bitmaps do, so it
+//!   is used as it is). Tangents are MikkTSpace, computed where a normal map
+//!   needs them (glTF's own `TANGENT`s are MikkTSpace by the spec and the
+//!   same up to rounding; vertex colours are not read yet).
+//! - **Materials** (metallic-roughness) become `principled`: base colour
+//!   (factor × sRGB texture), metallic and roughness (factors × the
+//!   texture's blue and green channels), specular 0.5 (F0 = 0.04, glTF's
+//!   dielectric). Mitsuba's principled is Burley's: its diffuse has the
+//!   retro-reflection and Fresnel shape of the Disney BRDF where glTF's
+//!   reference BRDF is Lambertian, and its sheen, clearcoat and
+//!   transmission stay off. Both use α = roughness² with GGX, so
+//!   highlights agree; diffuse surfaces are slightly brighter at grazing
+//!   angles than a rasterizer shows them. A normal texture becomes a
+//!   `normalmap` (MikkTSpace, its `scale` applied to x and y), emission
+//!   (factor × sRGB texture × `KHR_materials_emissive_strength`) an area
+//!   light with that radiance, `doubleSided` a `twosided`, alpha `MASK` a
+//!   `mask` of opacity 0 or 1 (alpha against the cutoff, per texel) and
+//!   `BLEND` a `mask` of opacity alpha (stochastic transparency). The
+//!   sampler's filter (nearest or linear) and its S wrap mode are used
+//!   (one wrap mode for both axes, as yubin's `bitmap` has). Occlusion
+//!   textures are for rasterizers (light the renderer computes itself)
+//!   and are ignored. A primitive without material gets glTF's default
+//!   (white, metallic 1, roughness 1).
+//! - **Lights** (`KHR_lights_punctual`): `point` (intensity in candela
+//!   taken as radiant intensity, W/sr), `spot` (its outer and inner cone
+//!   angles as `cutoff_angle` and `beam_width`), `directional` (lux taken
+//!   as irradiance). `range` is ignored (physical falloff only).
+//! - **Cameras** (only for a `.gltf`/`.glb` rendered on its own): the
+//!   first camera the scene's nodes use, perspective (`yfov`) or
+//!   orthographic (`xmag`, `ymag`); glTF cameras look along −z with +y up,
+//!   Mitsuba's along +z with +x to the left, so the node's matrix is
+//!   turned 180° about y. Without one, a 40° camera looks at the model's
+//!   bounds from +z.
+//!
+//! Rendering a glTF file on its own, what the file lacks comes from
+//! options: the resolution (default 1024 wide, the camera's aspect ratio
+//! or 4:3), samples per pixel (default 64), an environment map (`--env`;
+//! without it and without lights, a white constant environment).
+//!
+//! References: the glTF 2.0 specification (Khronos, 2021), appendix B
+//! (the metallic-roughness BRDF); `KHR_lights_punctual`,
+//! `KHR_texture_transform`, `KHR_materials_emissive_strength`.
+
+use crate::build::Builder;
+use crate::desc::{Category, Child, Object, Property, SceneDesc, Value};
+use crate::error::{Location, SceneError};
+use glam::{Affine2, DMat4, DVec3, Mat3, Vec2, Vec3};
+use gltf::khr_lights_punctual::Kind as LightKind;
+use std::cell::Cell;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+use std::sync::Arc;
+use yubin_core::bsdf::{Mask, Material, NormalMap, Principled, TwoSided};
+use yubin_core::light::{DirectionalLight, Emitter, PointLight, SpotLight};
+use yubin_core::math::Transform;
+use yubin_core::scene::ShapeEmitter;
+use yubin_core::shape::{MeshShape, Shape, TriangleMesh};
+use yubin_core::texture::image::ImageData;
+use yubin_core::texture::{Bitmap, FilterType, Tex, TexImage, Texture, WrapMode};
+use yubin_core::Rgb;
+
+/// What a glTF file rendered on its own lacks, from the command line.
+#[derive(Clone, Debug, Default)]
+pub struct GltfOptions {
+    /// Image width in pixels (default 1024).
+    pub width: Option<u32>,
+    /// Image height (default: from the width and the camera's aspect).
+    pub height: Option<u32>,
+    /// Samples per pixel (default 64).
+    pub spp: Option<u32>,
+    /// An environment map lighting the model (lat-long image).
+    pub env: Option<PathBuf>,
+}
+
+/// Whether `path` names a glTF file (by its extension).
+pub fn is_gltf(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
+/// Loads a glTF file rendered on its own ([`parse_gltf`], then built).
+pub fn load_gltf(path: &Path, options: &GltfOptions) -> Result<crate::LoadedScene, SceneError> {
+    crate::build::build_scene(&parse_gltf(path, options)?)
+}
+
+/// The scene of a glTF file rendered on its own: its camera (or one
+/// framing it), a film, a sampler, the environment, and the model as a
+/// `gltf` shape.
+pub fn parse_gltf(path: &Path, options: &GltfOptions) -> Result<SceneDesc, SceneError> {
+    let file = Arc::new(path.to_path_buf());
+    let loc = Location::new(file.clone(), 0);
+    let gltf = gltf::Gltf::open(path).map_err(|e| gltf_error(path, e))?;
+    let doc = &gltf.document;
+    let placed = placed_nodes(doc);
+    let camera = placed.iter().find_map(|(n, m)| n.camera().map(|c| (c, *m)));
+    let aspect = camera.as_ref().and_then(|(c, _)| match c.projection() {
+        gltf::camera::Projection::Perspective(p) => p.aspect_ratio(),
+        gltf::camera::Projection::Orthographic(o) => Some(o.xmag() / o.ymag()),
+    });
+    let width = options.width.unwrap_or(1024);
+    let height = options.height.unwrap_or_else(|| {
+        (width as f32 / aspect.unwrap_or(4.0 / 3.0))
+            .round()
+            .max(1.0) as u32
+    });
+    let sensor = match camera {
+        Some((c, m)) => gltf_camera(&c, m, &loc),
+        None => framing_camera(&placed, &loc),
+    };
+    let sensor = with_children(
+        sensor,
+        vec![
+            object(
+                Category::Film,
+                "hdrfilm",
+                &loc,
+                vec![
+                    prop("width", Value::Integer(width.into()), &loc),
+                    prop("height", Value::Integer(height.into()), &loc),
+                ],
+            ),
+            object(
+                Category::Sampler,
+                "independent",
+                &loc,
+                vec![prop(
+                    "sample_count",
+                    Value::Integer(options.spp.unwrap_or(64).into()),
+                    &loc,
+                )],
+            ),
+        ],
+    );
+    let has_lights = placed.iter().any(|(n, _)| n.light().is_some())
+        || doc.materials().any(|m| m.emissive_factor() != [0.0; 3]);
+    let mut top = vec![object(Category::Integrator, "path", &loc, vec![]), sensor];
+    if let Some(env) = &options.env {
+        let env = std::path::absolute(env).unwrap_or_else(|_| env.clone());
+        top.push(object(
+            Category::Emitter,
+            "envmap",
+            &loc,
+            vec![prop(
+                "filename",
+                Value::String(env.to_string_lossy().into_owned()),
+                &loc,
+            )],
+        ));
+    } else if !has_lights {
+        top.push(object(Category::Emitter, "constant", &loc, vec![]));
+    }
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    top.push(object(
+        Category::Shape,
+        "gltf",
+        &loc,
+        vec![prop(
+            "filename",
+            Value::String(absolute.to_string_lossy().into_owned()),
+            &loc,
+        )],
+    ));
+    let root = with_children(object(Category::Scene, "scene", &loc, vec![]), top);
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    Ok(SceneDesc {
+        root: Rc::new(root),
+        version: (3, 0, 0),
+        file: path.to_path_buf(),
+        search_paths: vec![dir],
+    })
+}
+
+fn prop(name: &str, value: Value, loc: &Location) -> Property {
+    Property {
+        name: name.to_string(),
+        value,
+        loc: loc.clone(),
+        used: Cell::new(false),
+        look_at_target: None,
+    }
+}
+
+fn object(category: Category, kind: &str, loc: &Location, props: Vec<Property>) -> Object {
+    let mut o = Object::new(category, kind, loc.clone());
+    o.props = props;
+    o
+}
+
+fn with_children(mut parent: Object, children: Vec<Object>) -> Object {
+    let loc = parent.loc.clone();
+    parent.children = children
+        .into_iter()
+        .map(|o| Child {
+            name: None,
+            object: Rc::new(o),
+            loc: loc.clone(),
+            used: Cell::new(false),
+        })
+        .collect();
+    parent
+}
+
+/// A glTF camera looks along −z with +y up; Mitsuba's along +z with +x
+/// to the left: the same frame turned 180° about y.
+fn mitsuba_camera_frame(m: DMat4) -> DMat4 {
+    m * DMat4::from_scale(DVec3::new(-1.0, 1.0, -1.0))
+}
+
+fn gltf_camera(c: &gltf::Camera, m: DMat4, loc: &Location) -> Object {
+    let frame = mitsuba_camera_frame(without_scale(m));
+    match c.projection() {
+        gltf::camera::Projection::Perspective(p) => {
+            let mut props = vec![
+                prop("fov", Value::Float(f64::from(p.yfov()).to_degrees()), loc),
+                prop("fov_axis", Value::String("y".into()), loc),
+                prop("to_world", Value::Transform(frame), loc),
+                prop("near_clip", Value::Float(f64::from(p.znear())), loc),
+            ];
+            if let Some(far) = p.zfar() {
+                props.push(prop("far_clip", Value::Float(f64::from(far)), loc));
+            }
+            object(Category::Sensor, "perspective", loc, props)
+        }
+        gltf::camera::Projection::Orthographic(o) => {
+            // Mitsuba's window is x ∈ [−1, 1] before to_world's scale.
+            let scale = DVec3::new(f64::from(o.xmag()), f64::from(o.xmag()), 1.0);
+            let props = vec![
+                prop(
+                    "to_world",
+                    Value::Transform(frame * DMat4::from_scale(scale)),
+                    loc,
+                ),
+                prop("near_clip", Value::Float(f64::from(o.znear())), loc),
+                prop("far_clip", Value::Float(f64::from(o.zfar())), loc),
+            ];
+            object(Category::Sensor, "orthographic", loc, props)
+        }
+    }
+}
+
+/// A node's matrix with its scale removed (a camera's scale would skew
+/// its rays; glTF says cameras ignore it).
+fn without_scale(m: DMat4) -> DMat4 {
+    let (_, rotation, translation) = m.to_scale_rotation_translation();
+    DMat4::from_rotation_translation(rotation, translation)
+}
+
+/// A 40° camera looking at the model's bounds from +z (glTF's front).
+fn framing_camera(placed: &[(gltf::Node, DMat4)], loc: &Location) -> Object {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for (node, m) in placed {
+        let Some(mesh) = node.mesh() else { continue };
+        for p in mesh.primitives() {
+            let b = p.bounding_box();
+            for corner in 0..8 {
+                let pick = |i: usize, a: [f32; 3], c: [f32; 3]| {
+                    if corner >> i & 1 == 0 {
+                        f64::from(a[i])
+                    } else {
+                        f64::from(c[i])
+                    }
+                };
+                let c = DVec3::new(
+                    pick(0, b.min, b.max),
+                    pick(1, b.min, b.max),
+                    pick(2, b.min, b.max),
+                );
+                let w = m.transform_point3(c);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        }
+    }
+    if !lo.is_finite() || !hi.is_finite() {
+        lo = DVec3::splat(-1.0);
+        hi = DVec3::splat(1.0);
+    }
+    let center = (lo + hi) * 0.5;
+    let radius = ((hi - lo).length() * 0.5).max(1e-6);
+    let fov = 40.0f64;
+    let distance = radius / (fov.to_radians() * 0.5).sin() * 1.05;
+    let origin = center + DVec3::Z * distance;
+    let to_world = DMat4::look_at_lh(origin, center, DVec3::Y).inverse();
+    object(
+        Category::Sensor,
+        "perspective",
+        loc,
+        vec![
+            prop("fov", Value::Float(fov), loc),
+            prop("fov_axis", Value::String("smaller".into()), loc),
+            prop("to_world", Value::Transform(to_world), loc),
+            prop("near_clip", Value::Float(distance * 1e-3), loc),
+            prop(
+                "far_clip",
+                Value::Float(distance * 10.0 + radius * 4.0),
+                loc,
+            ),
+        ],
+    )
+}
+
+/// Every node of the default scene (else the first) with its world
+/// matrix, parents before children.
+fn placed_nodes(doc: &gltf::Document) -> Vec<(gltf::Node<'_>, DMat4)> {
+    let mut out = Vec::new();
+    let Some(scene) = doc.default_scene().or_else(|| doc.scenes().next()) else {
+        return out;
+    };
+    let mut stack: Vec<(gltf::Node, DMat4)> = scene.nodes().map(|n| (n, DMat4::IDENTITY)).collect();
+    // A node may appear once in a scene by the spec; the depth bound keeps
+    // a malformed cycle from running away.
+    while let Some((node, parent)) = stack.pop() {
+        if out.len() > 1_000_000 {
+            break;
+        }
+        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+        let world = parent * local;
+        stack.extend(node.children().map(|c| (c, world)));
+        out.push((node, world));
+    }
+    out
+}
+
+/// A glTF error with the file, and the JSON paths of validation errors.
+fn gltf_error(path: &Path, e: gltf::Error) -> SceneError {
+    let at = Location::new(Arc::new(path.to_path_buf()), 0);
+    let msg = match e {
+        gltf::Error::Validation(errors) => {
+            let list: Vec<String> = errors
+                .iter()
+                .map(|(p, err)| format!("{}: {err}", p.as_str()))
+                .collect();
+            format!("invalid glTF: {}", list.join("; "))
+        }
+        other => format!("glTF: {other}"),
+    };
+    SceneError::at(&at, msg)
+}
+
+/// The decoded file.
+struct Model {
+    doc: gltf::Document,
+    buffers: Vec<gltf::buffer::Data>,
+    images: Vec<gltf::image::Data>,
+}
+
+/// Which use an image is decoded for (the channels it keeps and how).
+#[derive(Clone, Copy, Debug, Hash, PartialEq, Eq)]
+enum ImageUse {
+    /// sRGB colour times a factor.
+    Color([u32; 3]),
+    /// One linear channel (0 red … 3 alpha) times a factor.
+    Channel(usize, u32),
+    /// A tangent-space normal map with its scale.
+    Normal(u32),
+    /// Alpha against a cutoff (opacity 0 or 1) times a factor.
+    Cutoff(u32, u32),
+}
+
+/// Imports a glTF model into the scene being built.
+pub(crate) struct Importer<'b, 'a> {
+    b: &'b mut Builder<'a>,
+    model: Model,
+    file: PathBuf,
+    /// Images by (glTF image, use).
+    images: HashMap<(usize, ImageUse), u32>,
+    /// BSDFs by (material, has uvs).
+    bsdfs: HashMap<(Option<usize>, bool), (u32, bool)>,
+}
+
+impl Builder<'_> {
+    /// `<shape type="gltf">`: the model's meshes, materials and lights,
+    /// placed by `to_world` in shape group `group` (0: the world).
+    pub(crate) fn gltf_shape(&mut self, obj: &Object, group: u32) -> Result<(), SceneError> {
+        let name = obj
+            .string("filename")?
+            .ok_or_else(|| obj.error("needs a \"filename\""))?;
+        let path = self.desc.resolve_file(name, obj.loc_of("filename"))?;
+        let to_world = obj.transform("to_world")?;
+        let (doc, buffers, images) = gltf::import(&path).map_err(|e| gltf_error(&path, e))?;
+        let mut importer = Importer {
+            b: self,
+            model: Model {
+                doc,
+                buffers,
+                images,
+            },
+            file: path,
+            images: HashMap::new(),
+            bsdfs: HashMap::new(),
+        };
+        importer.import(to_world, group)
+    }
+}
+
+impl Importer<'_, '_> {
+    fn error(&self, msg: impl std::fmt::Display) -> SceneError {
+        SceneError::at(
+            &Location::new(Arc::new(self.file.clone()), 0),
+            msg.to_string(),
+        )
+    }
+
+    fn import(&mut self, to_world: DMat4, group: u32) -> Result<(), SceneError> {
+        let doc = self.model.doc.clone();
+        let placed: Vec<(usize, Option<usize>, DMat4)> = placed_nodes(&doc)
+            .into_iter()
+            .map(|(n, m)| (n.index(), n.mesh().map(|m| m.index()), to_world * m))
+            .collect();
+        let mut uses: HashMap<usize, usize> = HashMap::new();
+        for (_, mesh, _) in &placed {
+            if let Some(m) = mesh {
+                *uses.entry(*m).or_default() += 1;
+            }
+        }
+        let mut groups: HashMap<usize, u32> = HashMap::new();
+        for &(node, mesh, m) in &placed {
+            if let Some(mesh) = mesh {
+                if uses[&mesh] > 1 && group == 0 {
+                    let g = match groups.get(&mesh) {
+                        Some(&g) => g,
+                        None => {
+                            let g = self.b.sb.add_group();
+                            self.add_mesh(mesh, DMat4::IDENTITY, g)?;
+                            groups.insert(mesh, g);
+                            g
+                        }
+                    };
+                    let t = transform(m).ok_or_else(|| {
+                        self.error(format!("node {node}: a transform that cannot be inverted"))
+                    })?;
+                    self.b
+                        .sb
+                        .add_instance(g, t)
+                        .map_err(|e| self.error(format!("node {node}: {e}")))?;
+                } else {
+                    self.add_mesh(mesh, m, group)?;
+                }
+            }
+            let light = doc.nodes().nth(node).and_then(|n| n.light());
+            if let Some(light) = light {
+                self.add_light(&light, m)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Adds mesh `mesh`'s triangle primitives, placed by `m`, to `group`.
+    fn add_mesh(&mut self, mesh: usize, m: DMat4, group: u32) -> Result<(), SceneError> {
+        let doc = self.model.doc.clone();
+        let Some(gmesh) = doc.meshes().nth(mesh) else {
+            return Err(self.error(format!("/meshes/{mesh} does not exist")));
+        };
+        let t = transform(m)
+            .ok_or_else(|| self.error(format!("/meshes/{mesh}: placed by a singular transform")))?;
+        for p in gmesh.primitives() {
+            let at = format!("/meshes/{mesh}/primitives/{}", p.index());
+            if p.mode() != gltf::mesh::Mode::Triangles {
+                self.b.warnings.push(format!(
+                    "{}: {at}: mode {:?} skipped (only triangles are rendered)",
+                    self.file.display(),
+                    p.mode()
+                ));
+                continue;
+            }
+            let mut tri = self.read_primitive(&p, &at)?;
+            tri.transform(&t);
+            let has_uvs = !tri.uvs.is_empty();
+            let (bsdf, needs_tangents) = self.bsdf(p.material(), has_uvs)?;
+            if needs_tangents && !tri.compute_tangents() {
+                return Err(self.error(format!("{at}: no MikkTSpace tangents for its normal map")));
+            }
+            let emission = self.emission(&p.material())?;
+            let mesh_id = self.b.sb.add_mesh(tri);
+            self.b
+                .sb
+                .add_shape_with_emitter(
+                    group,
+                    Shape::Mesh(MeshShape { mesh: mesh_id }),
+                    Some(bsdf),
+                    emission.map(ShapeEmitter::Area),
+                )
+                .map_err(|e| self.error(format!("{at}: {e}")))?;
+        }
+        Ok(())
+    }
+
+    fn read_primitive(&self, p: &gltf::Primitive, at: &str) -> Result<TriangleMesh, SceneError> {
+        let buffers = &self.model.buffers;
+        let reader = p.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+        let positions: Vec<Vec3> = reader
+            .read_positions()
+            .ok_or_else(|| self.error(format!("{at}: no POSITION attribute")))?
+            .map(Vec3::from)
+            .collect();
+        let normals: Vec<Vec3> = reader
+            .read_normals()
+            .map(|n| n.map(Vec3::from).collect())
+            .unwrap_or_default();
+        let uvs: Vec<Vec2> = reader
+            .read_tex_coords(0)
+            .map(|t| t.into_f32().map(Vec2::from).collect())
+            .unwrap_or_default();
+        let flat: Vec<u32> = match reader.read_indices() {
+            Some(i) => i.into_u32().collect(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        if flat.len() % 3 != 0 {
+            return Err(self.error(format!(
+                "{at}: {} indices do not make whole triangles",
+                flat.len()
+            )));
+        }
+        let indices: Vec<[u32; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let normals = if normals.len() == positions.len() {
+            normals
+        } else {
+            Vec::new()
+        };
+        let uvs = if uvs.len() == positions.len() {
+            uvs
+        } else {
+            Vec::new()
+        };
+        TriangleMesh::new(positions, normals, uvs, indices, false, false)
+            .map_err(|e| self.error(format!("{at}: {e}")))
+    }
+
+    /// The BSDF of glTF material `material` (None: the default material)
+    /// on a mesh with or without uvs, and whether it reads MikkTSpace
+    /// tangents.
+    fn bsdf(&mut self, material: gltf::Material, has_uvs: bool) -> Result<(u32, bool), SceneError> {
+        let key = (material.index(), has_uvs);
+        if let Some(&found) = self.bsdfs.get(&key) {
+            return Ok(found);
+        }
+        let pbr = material.pbr_metallic_roughness();
+        let [r, g, b, a] = pbr.base_color_factor();
+        let base = pbr.base_color_texture().filter(|_| has_uvs);
+        let base_color = match &base {
+            Some(t) => self.texture(
+                t.texture(),
+                t.texture_transform(),
+                ImageUse::Color(bits([r, g, b])),
+            )?,
+            None => Tex::Const(Rgb::new(r, g, b)),
+        };
+        let mr = pbr.metallic_roughness_texture().filter(|_| has_uvs);
+        let (metallic, roughness) = match &mr {
+            Some(t) => (
+                self.texture(
+                    t.texture(),
+                    t.texture_transform(),
+                    ImageUse::Channel(2, pbr.metallic_factor().to_bits()),
+                )?,
+                self.texture(
+                    t.texture(),
+                    t.texture_transform(),
+                    ImageUse::Channel(1, pbr.roughness_factor().to_bits()),
+                )?,
+            ),
+            None => (
+                Tex::value(pbr.metallic_factor()),
+                Tex::value(pbr.roughness_factor()),
+            ),
+        };
+        let mut principled = Principled::new(Rgb::ONE);
+        principled.common.base_color = base_color;
+        principled.common.roughness = roughness;
+        principled.metallic = metallic;
+        let mut id = self.b.sb.add_bsdf(Material::Principled(principled));
+        let mut tangents = false;
+        if let Some(n) = material.normal_texture().filter(|_| has_uvs) {
+            let map = self.texture(n.texture(), None, ImageUse::Normal(n.scale().to_bits()))?;
+            id = self.b.sb.add_bsdf(Material::NormalMap(NormalMap {
+                normalmap: map,
+                mikktspace: true,
+                nested: id,
+            }));
+            tangents = true;
+        }
+        if material.double_sided() {
+            id = self.b.sb.add_bsdf(Material::TwoSided(TwoSided {
+                front: id,
+                back: id,
+            }));
+        }
+        let opacity = match material.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => None,
+            gltf::material::AlphaMode::Mask => {
+                let cutoff = material.alpha_cutoff().unwrap_or(0.5);
+                Some(match &base {
+                    Some(t) => self.texture(
+                        t.texture(),
+                        t.texture_transform(),
+                        ImageUse::Cutoff(cutoff.to_bits(), a.to_bits()),
+                    )?,
+                    None => Tex::value(if a >= cutoff { 1.0 } else { 0.0 }),
+                })
+            }
+            gltf::material::AlphaMode::Blend => Some(match &base {
+                Some(t) => self.texture(
+                    t.texture(),
+                    t.texture_transform(),
+                    ImageUse::Channel(3, a.to_bits()),
+                )?,
+                None => Tex::value(a.clamp(0.0, 1.0)),
+            }),
+        };
+        if let Some(opacity) = opacity {
+            id = self.b.sb.add_bsdf(Material::Mask(Mask {
+                opacity,
+                nested: id,
+            }));
+        }
+        self.bsdfs.insert(key, (id, tangents));
+        Ok((id, tangents))
+    }
+
+    /// The radiance a material emits (factor × texture × strength).
+    fn emission(&mut self, material: &gltf::Material) -> Result<Option<Tex>, SceneError> {
+        let strength = material.emissive_strength().unwrap_or(1.0);
+        let f = material.emissive_factor().map(|c| c * strength);
+        if f == [0.0; 3] {
+            return Ok(None);
+        }
+        Ok(Some(match material.emissive_texture() {
+            Some(t) => {
+                self.texture(t.texture(), t.texture_transform(), ImageUse::Color(bits(f)))?
+            }
+            None => Tex::Const(Rgb::from(f)),
+        }))
+    }
+
+    /// A bitmap texture of glTF texture `t` decoded for `usage`.
+    fn texture(
+        &mut self,
+        t: gltf::Texture,
+        transform: Option<gltf::texture::TextureTransform>,
+        usage: ImageUse,
+    ) -> Result<Tex, SceneError> {
+        let source = t.source().index();
+        let image = match self.images.get(&(source, usage)) {
+            Some(&i) => i,
+            None => {
+                let img = self.decode(source, usage)?;
+                let i = self.b.sb.add_image(img);
+                self.images.insert((source, usage), i);
+                i
+            }
+        };
+        let sampler = t.sampler();
+        let filter = match sampler.mag_filter() {
+            Some(gltf::texture::MagFilter::Nearest) => FilterType::Nearest,
+            _ => FilterType::Bilinear,
+        };
+        let wrap = match sampler.wrap_s() {
+            gltf::texture::WrappingMode::ClampToEdge => WrapMode::Clamp,
+            gltf::texture::WrappingMode::MirroredRepeat => WrapMode::Mirror,
+            gltf::texture::WrappingMode::Repeat => WrapMode::Repeat,
+        };
+        let raw = !matches!(usage, ImageUse::Color(_));
+        let id = self.b.sb.add_texture(Texture::Bitmap(Bitmap {
+            image,
+            filter,
+            wrap,
+            raw,
+            to_uv: uv_transform(transform.as_ref()),
+        }));
+        Ok(Tex::Texture(id))
+    }
+
+    /// Image `source` as `usage` needs it.
+    fn decode(&self, source: usize, usage: ImageUse) -> Result<TexImage, SceneError> {
+        let data = self
+            .model
+            .images
+            .get(source)
+            .ok_or_else(|| self.error(format!("/images/{source} does not exist")))?;
+        let channels = match data.format {
+            gltf::image::Format::R8 => 1,
+            gltf::image::Format::R8G8 => 2,
+            gltf::image::Format::R8G8B8 => 3,
+            gltf::image::Format::R8G8B8A8 => 4,
+            other => {
+                return Err(self.error(format!(
+                    "/images/{source}: pixel format {other:?} is not supported (8-bit images only)"
+                )))
+            }
+        };
+        let (w, h) = (data.width, data.height);
+        let texel = |i: usize, c: usize| -> f32 {
+            let c = c.min(channels - 1);
+            f32::from(data.pixels[i * channels + c]) / 255.0
+        };
+        let alpha = |i: usize| if channels == 4 { texel(i, 3) } else { 1.0 };
+        let n = w as usize * h as usize;
+        let bad = || self.error(format!("/images/{source}: its pixels do not fill {w}×{h}"));
+        if data.pixels.len() < n * channels {
+            return Err(bad());
+        }
+        let image = match usage {
+            ImageUse::Color(f) if f == bits([1.0; 3]) => {
+                let px: Vec<u8> = (0..n)
+                    .flat_map(|i| (0..3).map(move |c| (i, c)))
+                    .map(|(i, c)| data.pixels[i * channels + c.min(channels - 1)])
+                    .collect();
+                TexImage::new(w, h, 3, ImageData::U8(px), true)
+            }
+            ImageUse::Color(f) => {
+                let f = f.map(f32::from_bits);
+                let px: Vec<f32> = (0..n)
+                    .flat_map(|i| (0..3).map(move |c| (i, c)))
+                    .map(|(i, c)| yubin_core::texture::image::srgb_to_linear(texel(i, c)) * f[c])
+                    .collect();
+                TexImage::new(w, h, 3, ImageData::F32(px), false)
+            }
+            ImageUse::Channel(c, f) => {
+                let f = f32::from_bits(f);
+                let px: Vec<f32> = (0..n)
+                    .map(|i| if c == 3 { alpha(i) } else { texel(i, c) } * f)
+                    .collect();
+                TexImage::new(w, h, 1, ImageData::F32(px), false)
+            }
+            ImageUse::Cutoff(cutoff, f) => {
+                let (cutoff, f) = (f32::from_bits(cutoff), f32::from_bits(f));
+                let px: Vec<f32> = (0..n)
+                    .map(|i| if alpha(i) * f >= cutoff { 1.0 } else { 0.0 })
+                    .collect();
+                TexImage::new(w, h, 1, ImageData::F32(px), false)
+            }
+            ImageUse::Normal(s) => {
+                let s = f32::from_bits(s);
+                let px: Vec<f32> = (0..n)
+                    .flat_map(|i| {
+                        let v = Vec3::new(texel(i, 0), texel(i, 1), texel(i, 2)) * 2.0 - Vec3::ONE;
+                        let v = (v * Vec3::new(s, s, 1.0))
+                            .try_normalize()
+                            .unwrap_or(Vec3::Z);
+                        ((v + Vec3::ONE) * 0.5).to_array()
+                    })
+                    .collect();
+                TexImage::new(w, h, 3, ImageData::F32(px), false)
+            }
+        };
+        image.ok_or_else(bad)
+    }
+
+    fn add_light(
+        &mut self,
+        light: &gltf::khr_lights_punctual::Light,
+        m: DMat4,
+    ) -> Result<(), SceneError> {
+        let intensity = Rgb::from(light.color()) * light.intensity();
+        let position = m.transform_point3(DVec3::ZERO).as_vec3();
+        let emitter = match light.kind() {
+            LightKind::Point => Emitter::Point(PointLight {
+                position,
+                intensity,
+            }),
+            LightKind::Directional => Emitter::Directional(DirectionalLight {
+                direction: m
+                    .transform_vector3(DVec3::NEG_Z)
+                    .as_vec3()
+                    .try_normalize()
+                    .unwrap_or(Vec3::NEG_Z),
+                irradiance: intensity,
+            }),
+            LightKind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => {
+                // Mitsuba's spot shines along +z: turn glTF's −z onto it.
+                let frame = without_scale(m) * DMat4::from_scale(DVec3::new(1.0, -1.0, -1.0));
+                let t = transform(frame)
+                    .ok_or_else(|| self.error("a spot light placed by a singular transform"))?;
+                let cutoff = outer_cone_angle.clamp(1e-4, std::f32::consts::FRAC_PI_2);
+                Emitter::Spot(SpotLight::new(
+                    t,
+                    intensity,
+                    cutoff,
+                    inner_cone_angle.clamp(0.0, cutoff),
+                ))
+            }
+        };
+        self.b.sb.add_emitter(emitter);
+        Ok(())
+    }
+}
+
+/// Factors as bits, for hashing a decoding.
+fn bits(f: [f32; 3]) -> [u32; 3] {
+    f.map(f32::to_bits)
+}
+
+/// A matrix as yubin's transform (`None` when singular).
+fn transform(m: DMat4) -> Option<Transform> {
+    Transform::from_mat4(m.as_mat4())
+}
+
+/// `KHR_texture_transform` as the bitmap's uv transform (the same uv
+/// convention: no change of axes).
+fn uv_transform(t: Option<&gltf::texture::TextureTransform>) -> Affine2 {
+    let Some(t) = t else {
+        return Affine2::IDENTITY;
+    };
+    let [ox, oy] = t.offset();
+    let [sx, sy] = t.scale();
+    let (s, c) = t.rotation().sin_cos();
+    // The extension's matrix: translation · rotation · scale.
+    Affine2::from_mat3(Mat3::from_cols(
+        Vec3::new(c * sx, s * sx, 0.0),
+        Vec3::new(-s * sy, c * sy, 0.0),
+        Vec3::new(ox, oy, 1.0),
+    ))
+}
