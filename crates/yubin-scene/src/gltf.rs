@@ -113,7 +113,7 @@ pub fn load_gltf(path: &Path, options: &GltfOptions) -> Result<crate::LoadedScen
 pub fn parse_gltf(path: &Path, options: &GltfOptions) -> Result<SceneDesc, SceneError> {
     let file = Arc::new(path.to_path_buf());
     let loc = Location::new(file.clone(), 0);
-    let gltf = gltf::Gltf::open(path).map_err(|e| gltf_error(path, e))?;
+    let gltf = open_checked(path)?;
     let doc = &gltf.document;
     let placed = placed_nodes(doc);
     let camera = placed.iter().find_map(|(n, m)| n.camera().map(|c| (c, *m)));
@@ -353,13 +353,139 @@ fn gltf_error(path: &Path, e: gltf::Error) -> SceneError {
         gltf::Error::Validation(errors) => {
             let list: Vec<String> = errors
                 .iter()
-                .map(|(p, err)| format!("{}: {err}", p.as_str()))
+                .map(|(p, err)| format!("{}: {err}", json_pointer(p.as_str())))
                 .collect();
             format!("invalid glTF: {}", list.join("; "))
         }
         other => format!("glTF: {other}"),
     };
     SceneError::at(&at, msg)
+}
+
+/// A path as the `gltf` crate writes it (`meshes[0].primitives[1]`) as
+/// a JSON pointer (`/meshes/0/primitives/1`).
+fn json_pointer(path: &str) -> String {
+    let mut out = String::from("/");
+    out.push_str(&path.replace('[', "/").replace(']', "").replace('.', "/"));
+    out.replace("//", "/")
+}
+
+/// The file, its buffers and its images, read and checked: every buffer
+/// and image file it names must exist (named by its JSON pointer), and
+/// every accessor must lie inside its buffer view and buffer.
+fn import(
+    path: &Path,
+) -> Result<
+    (
+        gltf::Document,
+        Vec<gltf::buffer::Data>,
+        Vec<gltf::image::Data>,
+    ),
+    SceneError,
+> {
+    let at = Location::new(Arc::new(path.to_path_buf()), 0);
+    let gltf = open_checked(path)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let external = |uri: &str| !uri.starts_with("data:") && !uri.contains('%');
+    let buffers = gltf.buffers().filter_map(|b| match b.source() {
+        gltf::buffer::Source::Uri(u) => Some((format!("/buffers/{}", b.index()), u)),
+        gltf::buffer::Source::Bin => None,
+    });
+    let images = gltf.images().filter_map(|i| match i.source() {
+        gltf::image::Source::Uri { uri, .. } => Some((format!("/images/{}", i.index()), uri)),
+        gltf::image::Source::View { .. } => None,
+    });
+    for (pointer, uri) in buffers.chain(images) {
+        if external(uri) && !dir.join(uri).is_file() {
+            return Err(SceneError::at(
+                &at,
+                format!(
+                    "{pointer}: \"{uri}\" not found (looked in {})",
+                    dir.display()
+                ),
+            ));
+        }
+    }
+    check_accessors(&gltf.document, &at)?;
+    let buffers = gltf::import_buffers(&gltf.document, Some(dir), gltf.blob)
+        .map_err(|e| gltf_error(path, e))?;
+    let images = gltf::import_images(&gltf.document, Some(dir), &buffers)
+        .map_err(|e| gltf_error(path, e))?;
+    Ok((gltf.document, buffers, images))
+}
+
+/// The file's JSON (and GLB binary chunk), validated. A primitive whose
+/// POSITION names no accessor is caught first: the `gltf` crate's own
+/// validation indexes the accessors with it unchecked.
+fn open_checked(path: &Path) -> Result<gltf::Gltf, SceneError> {
+    let at = Location::new(Arc::new(path.to_path_buf()), 0);
+    let bytes = std::fs::read(path).map_err(|e| SceneError::at(&at, format!("glTF: {e}")))?;
+    let unchecked =
+        gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| gltf_error(path, e))?;
+    let json = unchecked.document.as_json();
+    for (i, m) in json.meshes.iter().enumerate() {
+        for (j, p) in m.primitives.iter().enumerate() {
+            let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
+            if let Some(a) = p.attributes.get(&position) {
+                if a.value() >= json.accessors.len() {
+                    return Err(SceneError::at(
+                        &at,
+                        format!(
+                            "/meshes/{i}/primitives/{j}/attributes/POSITION: accessor {} does \
+                             not exist ({} accessors)",
+                            a.value(),
+                            json.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    gltf::Gltf::from_slice(&bytes).map_err(|e| gltf_error(path, e))
+}
+
+/// Every accessor's bytes lie inside its buffer view, and every view
+/// inside its buffer (the `gltf` crate checks indices, not extents).
+fn check_accessors(doc: &gltf::Document, at: &Location) -> Result<(), SceneError> {
+    for v in doc.views() {
+        let end = v.offset() as u64 + v.length() as u64;
+        if end > v.buffer().length() as u64 {
+            return Err(SceneError::at(
+                at,
+                format!(
+                    "/bufferViews/{}: bytes {}..{end} lie outside buffer {} ({} bytes)",
+                    v.index(),
+                    v.offset(),
+                    v.buffer().index(),
+                    v.buffer().length()
+                ),
+            ));
+        }
+    }
+    for a in doc.accessors() {
+        let Some(v) = a.view() else { continue };
+        if a.count() == 0 {
+            continue;
+        }
+        let element = a.size() as u64;
+        let stride = v.stride().map_or(element, |s| s as u64);
+        let end = a.offset() as u64 + stride * (a.count() as u64 - 1) + element;
+        if end > v.length() as u64 {
+            return Err(SceneError::at(
+                at,
+                format!(
+                    "/accessors/{}: {} elements of {element} bytes from byte {} need {end} bytes, \
+                     but buffer view {} has {}",
+                    a.index(),
+                    a.count(),
+                    a.offset(),
+                    v.index(),
+                    v.length()
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The decoded file.
@@ -402,7 +528,7 @@ impl Builder<'_> {
             .ok_or_else(|| obj.error("needs a \"filename\""))?;
         let path = self.desc.resolve_file(name, obj.loc_of("filename"))?;
         let to_world = obj.transform("to_world")?;
-        let (doc, buffers, images) = gltf::import(&path).map_err(|e| gltf_error(&path, e))?;
+        let (doc, buffers, images) = import(&path)?;
         let mut importer = Importer {
             b: self,
             model: Model {

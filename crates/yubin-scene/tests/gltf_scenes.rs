@@ -1,0 +1,271 @@
+//! glTF 2.0 scenes: a model and the same scene written by hand in Mitsuba
+//! XML render alike, a model placed in XML by `<shape type="gltf">`, bad
+//! files are clear errors naming the file and the JSON pointer, and the
+//! sample models of `../shared` come out the right way up.
+
+use std::path::{Path, PathBuf};
+use yubin_core::render::{render, RenderSettings};
+use yubin_scene::gltf::{load_gltf, GltfOptions};
+use yubin_scene::{load_scene_str, LoadedScene};
+
+/// A fresh directory for one test's files.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("yubin-gltf-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Little-endian bytes of floats and integers, as a glTF buffer holds them.
+fn bytes_f32(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+fn bytes_u16(v: &[u16]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// A quad facing +z (two triangles) and a floor below it, as raw data.
+const POSITIONS: [f32; 24] = [
+    -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0, //
+    -4.0, -1.0, 4.0, 4.0, -1.0, 4.0, 4.0, -1.0, -4.0, -4.0, -1.0, -4.0,
+];
+const INDICES: [u16; 12] = [0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7];
+
+/// The glTF of the quad and floor (a red rough dielectric), a camera at
+/// z = 5 and a point light, its buffer in `scene.bin`.
+fn write_gltf(dir: &Path) -> PathBuf {
+    let mut bin = bytes_f32(&POSITIONS);
+    bin.extend(bytes_u16(&INDICES));
+    std::fs::write(dir.join("scene.bin"), &bin).unwrap();
+    let json = format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "extensionsUsed": ["KHR_lights_punctual"],
+  "extensions": {{"KHR_lights_punctual": {{"lights": [
+    {{"type": "point", "color": [1, 0.9, 0.8], "intensity": 30}}]}}}},
+  "scene": 0,
+  "scenes": [{{"nodes": [0, 1, 2]}}],
+  "nodes": [
+    {{"mesh": 0}},
+    {{"camera": 0, "translation": [0, 0, 5]}},
+    {{"translation": [1, 3, 3], "extensions": {{"KHR_lights_punctual": {{"light": 0}}}}}}
+  ],
+  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.6, "znear": 0.01, "aspectRatio": 1.5}}}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0}}]}}],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorFactor": [0.8, 0.3, 0.2, 1], "metallicFactor": 0, "roughnessFactor": 0.5}}}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3", "min": [-4, -1, -4], "max": [4, 1, 4]}},
+    {{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}}
+  ],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 96}},
+    {{"buffer": 0, "byteOffset": 96, "byteLength": 24}}
+  ],
+  "buffers": [{{"uri": "scene.bin", "byteLength": {}}}]
+}}"#,
+        bin.len()
+    );
+    let path = dir.join("scene.gltf");
+    std::fs::write(&path, json).unwrap();
+    path
+}
+
+/// The same scene by hand: the mesh as an OBJ, `principled`, the camera
+/// turned as glTF's −z view becomes Mitsuba's +z.
+fn write_xml(dir: &Path) -> String {
+    let mut obj = String::new();
+    for p in POSITIONS.chunks(3) {
+        obj += &format!("v {:?} {:?} {:?}\n", p[0], p[1], p[2]);
+    }
+    for t in INDICES.chunks(3) {
+        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    std::fs::write(dir.join("scene.obj"), obj).unwrap();
+    let fov = f64::from(0.6f32).to_degrees();
+    let near = f64::from(0.01f32);
+    let intensity = |c: f32| c * 30.0;
+    format!(
+        r#"<scene version="3.0.0">
+    <integrator type="path"/>
+    <sensor type="perspective">
+        <float name="fov" value="{fov:?}"/>
+        <string name="fov_axis" value="y"/>
+        <float name="near_clip" value="{near:?}"/>
+        <transform name="to_world">
+            <matrix value="-1 0 0 0  0 1 0 0  0 0 -1 5  0 0 0 1"/>
+        </transform>
+        <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="32"/></film>
+        <sampler type="independent"><integer name="sample_count" value="8"/></sampler>
+    </sensor>
+    <emitter type="point">
+        <point name="position" x="1" y="3" z="3"/>
+        <rgb name="intensity" value="{:?}, {:?}, {:?}"/>
+    </emitter>
+    <shape type="obj">
+        <string name="filename" value="scene.obj"/>
+        <bsdf type="principled">
+            <rgb name="base_color" value="0.8, 0.3, 0.2"/>
+            <float name="metallic" value="0"/>
+            <float name="roughness" value="0.5"/>
+        </bsdf>
+    </shape>
+</scene>"#,
+        intensity(1.0),
+        intensity(0.9),
+        intensity(0.8)
+    )
+}
+
+fn image(s: &LoadedScene) -> Vec<f32> {
+    let settings = RenderSettings { spp: 8, seed: 3 };
+    render(&s.scene, s.integrator.as_ref(), &settings, &|_| {})
+        .image
+        .data
+}
+
+fn options() -> GltfOptions {
+    GltfOptions {
+        width: Some(48),
+        height: None,
+        spp: Some(8),
+        env: None,
+    }
+}
+
+#[test]
+fn a_gltf_scene_renders_as_the_same_scene_in_xml() {
+    let dir = scratch("same");
+    let gltf = load_gltf(&write_gltf(&dir), &options()).expect("the glTF loads");
+    let xml = write_xml(&dir);
+    let xml = load_scene_str(&xml, &dir.join("scene.xml"), &[]).expect("the XML loads");
+    let (a, b) = (image(&gltf), image(&xml));
+    assert!(a.iter().any(|&v| v > 0.0), "the glTF scene renders black");
+    assert!(a == b, "the glTF and XML scenes differ");
+}
+
+#[test]
+fn a_gltf_model_can_be_placed_in_xml() {
+    let dir = scratch("placed");
+    write_gltf(&dir);
+    let xml = r#"<scene version="3.0.0">
+        <sensor type="perspective"><float name="fov" value="40"/>
+            <transform name="to_world"><lookat origin="0,0,8" target="0,0,0" up="0,1,0"/></transform>
+            <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
+        </sensor>
+        <shape type="gltf">
+            <string name="filename" value="scene.gltf"/>
+            <transform name="to_world"><translate y="0.5"/></transform>
+        </shape>
+    </scene>"#;
+    let loaded = load_scene_str(xml, &dir.join("placed.xml"), &[]).expect("the scene loads");
+    // The model's light comes with it.
+    assert!(image(&loaded).iter().any(|&v| v > 0.0));
+}
+
+/// The error of loading `json` (buffer-less or with `scene.bin` beside it).
+fn error_of(name: &str, json: &str) -> String {
+    let dir = scratch(name);
+    let path = dir.join("bad.gltf");
+    std::fs::write(&path, json).unwrap();
+    match load_gltf(&path, &options()) {
+        Ok(_) => panic!("{name}: a bad file loaded"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_files_are_errors_naming_the_file_and_the_place() {
+    let missing = error_of(
+        "missing",
+        r#"{"asset": {"version": "2.0"}, "buffers": [{"uri": "gone.bin", "byteLength": 12}]}"#,
+    );
+    assert!(
+        missing.contains("bad.gltf")
+            && missing.contains("/buffers/0")
+            && missing.contains("gone.bin"),
+        "{missing}"
+    );
+    let accessor = error_of(
+        "accessor",
+        r#"{"asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 3}}]}]}"#,
+    );
+    assert!(
+        accessor.contains("bad.gltf") && accessor.contains("/meshes/0/primitives/0/attributes"),
+        "{accessor}"
+    );
+    let extension = error_of(
+        "extension",
+        r#"{"asset": {"version": "2.0"}, "extensionsUsed": ["KHR_draco_mesh_compression"],
+            "extensionsRequired": ["KHR_draco_mesh_compression"]}"#,
+    );
+    assert!(
+        extension.contains("bad.gltf")
+            && extension.contains("/extensionsRequired/0")
+            && extension.contains("KHR_draco_mesh_compression"),
+        "{extension}"
+    );
+    let short = error_of(
+        "short",
+        &format!(
+            r#"{{"asset": {{"version": "2.0"}}, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+            "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 30, "type": "VEC3",
+                "min": [0, 0, 0], "max": [1, 1, 1]}}],
+            "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+            "buffers": [{{"uri": "data:application/octet-stream;base64,{}", "byteLength": 36}}]}}"#,
+            "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"
+        ),
+    );
+    assert!(
+        short.contains("bad.gltf") && short.contains("/accessors/0"),
+        "{short}"
+    );
+}
+
+/// The glTF sample model that shows which way texture coordinates run:
+/// each quad's corner marks (black checkers) sit in the corner its label
+/// names, so the top-left quad has them at its top left, not its bottom
+/// left (v upside down) or top right (u mirrored).
+#[test]
+fn texture_coordinate_test_comes_out_the_right_way_up_shared() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/assets/gltf/TextureCoordinateTest/TextureCoordinateTest.gltf");
+    if !path.exists() {
+        println!("skipped: {} is absent", path.display());
+        return;
+    }
+    let options = GltfOptions {
+        width: Some(200),
+        height: Some(150),
+        spp: Some(4),
+        env: None,
+    };
+    let s = load_gltf(&path, &options).expect("the sample model loads");
+    let img = render(
+        &s.scene,
+        s.integrator.as_ref(),
+        &RenderSettings { spp: 4, seed: 1 },
+        &|_| {},
+    )
+    .image;
+    // The darkest mean luminance of a small window around (fx, fy), as
+    // fractions of the image: a checker mark is dark, the quads bright.
+    let dark = |fx: f32, fy: f32| {
+        let (cx, cy) = ((fx * 200.0) as i32, (fy * 150.0) as i32);
+        let mut sum = 0.0;
+        for y in cy - 3..=cy + 3 {
+            for x in cx - 3..=cx + 3 {
+                let (x, y) = (x.clamp(0, 199) as u32, y.clamp(0, 149) as u32);
+                sum += (0..3).map(|c| img.get(x, y, c)).sum::<f32>();
+            }
+        }
+        sum / 49.0
+    };
+    // The top-left quad spans about x 0.27–0.46, y 0.19–0.45 of the frame.
+    let (top_left, bottom_left, top_right) = (dark(0.29, 0.21), dark(0.29, 0.43), dark(0.44, 0.21));
+    assert!(
+        top_left < 0.7 * bottom_left && top_left < 0.7 * top_right,
+        "marks at top left {top_left}, bottom left {bottom_left}, top right {top_right}"
+    );
+}
