@@ -29,9 +29,15 @@ const FAMILIES: &[(&str, &str)] = &[
     ("integrator", "integrator"),
 ];
 
+/// Plugins the scene front end (`yubin-scene`) implements, as (family
+/// directory, path relative to `crates/`): listed with their family.
+const FRONT_END_PLUGINS: &[(&str, &str)] = &[("shape", "yubin-scene/src/gltf.rs")];
+
 struct Entry {
     /// The type string, or `None` for a file documenting several plugins.
     name: Option<String>,
+    /// Where its source is, from the repository's root.
+    source: String,
     /// Path relative to `src/`.
     file: String,
     /// The header with `//!` stripped.
@@ -82,18 +88,23 @@ fn entries(family_dir: &Path, family: &str) -> Vec<Entry> {
         let file_name = path.file_name().expect("file name").to_string_lossy();
         out.push(Entry {
             name,
+            source: format!("crates/yubin-core/src/{family}/{file_name}"),
             file: format!("{family}/{file_name}"),
             text,
         });
     }
-    // Named plugins first, by name; multi-plugin files after, by path.
-    out.sort_by(|a, b| match (&a.name, &b.name) {
+    out.sort_by(by_name);
+    out
+}
+
+/// Named plugins first, by name; multi-plugin files after, by path.
+fn by_name(a: &Entry, b: &Entry) -> std::cmp::Ordering {
+    match (&a.name, &b.name) {
         (Some(x), Some(y)) => x.cmp(y),
         (Some(_), None) => std::cmp::Ordering::Less,
         (None, Some(_)) => std::cmp::Ordering::Greater,
         (None, None) => a.file.cmp(&b.file),
-    });
-    out
+    }
 }
 
 fn anchor(tag: &str, e: &Entry) -> String {
@@ -109,7 +120,23 @@ fn anchor(tag: &str, e: &Entry) -> String {
 fn generate(src: &Path) -> String {
     let families: Vec<(&str, &str, Vec<Entry>)> = FAMILIES
         .iter()
-        .map(|&(dir, tag)| (dir, tag, entries(&src.join(dir), dir)))
+        .map(|&(dir, tag)| {
+            let mut list = entries(&src.join(dir), dir);
+            for &(family, file) in FRONT_END_PLUGINS.iter().filter(|(f, _)| *f == dir) {
+                let path = src.join("../..").join(file);
+                let text = header(&std::fs::read_to_string(&path).expect("readable source file"));
+                let name = type_name(&text);
+                let file_name = file.rsplit('/').next().unwrap_or(file);
+                list.push(Entry {
+                    name,
+                    source: format!("crates/{file}"),
+                    file: format!("{family}/{file_name}"),
+                    text,
+                });
+            }
+            list.sort_by(by_name);
+            (dir, tag, list)
+        })
         .filter(|(_, _, e)| !e.is_empty())
         .collect();
 
@@ -117,7 +144,7 @@ fn generate(src: &Path) -> String {
     md.push_str("# Plugin reference\n\n");
     md.push_str(
         "<!-- Generated from the `//!` header of every plugin file in \
-         `crates/yubin-core/src/<family>/`. Do not edit by hand: change the \
+         `crates/yubin-core/src/<family>/` (and the front end's `gltf`). Do not edit by hand: change the \
          header and run `YUBIN_UPDATE_DOCS=1 cargo test -p yubin-core --test \
          plugin_docs`. -->\n\n",
     );
@@ -150,9 +177,9 @@ fn generate(src: &Path) -> String {
             };
             let _ = write!(
                 md,
-                "\n<a id=\"{}\"></a>\n\n### {title}\n\n*Source: `crates/yubin-core/src/{}`*\n\n{}",
+                "\n<a id=\"{}\"></a>\n\n### {title}\n\n*Source: `{}`*\n\n{}",
                 anchor(tag, e),
-                e.file,
+                e.source,
                 e.text
             );
         }

@@ -1,6 +1,6 @@
-//! glTF 2.0 scenes (`.gltf` with its buffers and images, or `.glb`):
-//! `yubin render model.glb`, and `<shape type="gltf">` to place a model in
-//! a Mitsuba XML scene.
+//! `gltf`: glTF 2.0 scenes (`.gltf` with its buffers and images, or
+//! `.glb`): `yubin render model.glb`, and `<shape type="gltf">` to place a
+//! model in a Mitsuba XML scene.
 //!
 //! | parameter  | type      | default  | meaning |
 //! |------------|-----------|----------|---------|
