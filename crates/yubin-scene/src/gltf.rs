@@ -21,9 +21,11 @@
 //! - **Meshes**: triangle primitives (other modes are skipped with a
 //!   warning): positions, normals, `TEXCOORD_0`, indices (glTF's uv has
 //!   its origin at the image's top left, as Mitsuba's bitmaps do, so it
-//!   is used as it is). Tangents are MikkTSpace, computed where a normal map
-//!   needs them (glTF's own `TANGENT`s are MikkTSpace by the spec and the
-//!   same up to rounding; vertex colours are not read yet).
+//!   is used as it is), `TANGENT` (MikkTSpace by the spec; computed where
+//!   a normal map needs tangents and the file has none), `COLOR_0` (times
+//!   the base colour factor, as the `vertex_color` mesh attribute the
+//!   base colour reads; under a base colour texture it is ignored, with a
+//!   warning).
 //! - **Materials** (metallic-roughness) become `principled`: base colour
 //!   (factor × sRGB texture), metallic and roughness (factors × the
 //!   texture's blue and green channels), specular 0.5 (F0 = 0.04, glTF's
@@ -66,7 +68,7 @@
 use crate::build::Builder;
 use crate::desc::{Category, Child, Object, Property, SceneDesc, Value};
 use crate::error::{Location, SceneError};
-use glam::{Affine2, DMat4, DVec3, Mat3, Vec2, Vec3};
+use glam::{Affine2, DMat4, DVec3, Mat3, Vec2, Vec3, Vec4};
 use gltf::khr_lights_punctual::Kind as LightKind;
 use std::cell::Cell;
 use std::collections::HashMap;
@@ -79,7 +81,9 @@ use yubin_core::math::Transform;
 use yubin_core::scene::ShapeEmitter;
 use yubin_core::shape::{MeshShape, Shape, TriangleMesh};
 use yubin_core::texture::image::ImageData;
-use yubin_core::texture::{Bitmap, FilterType, Tex, TexImage, Texture, WrapMode};
+use yubin_core::texture::{
+    Bitmap, FilterType, MeshAttribute, NamedAttribute, Tex, TexImage, Texture, WrapMode,
+};
 use yubin_core::Rgb;
 
 /// What a glTF file rendered on its own lacks, from the command line.
@@ -495,6 +499,10 @@ struct Model {
     images: Vec<gltf::image::Data>,
 }
 
+/// The mesh attribute vertex colours (times the base colour factor) go
+/// to.
+const VERTEX_COLOUR: &str = "vertex_color";
+
 /// Which use an image is decoded for (the channels it keeps and how).
 #[derive(Clone, Copy, Debug, Hash, PartialEq, Eq)]
 enum ImageUse {
@@ -515,8 +523,8 @@ pub(crate) struct Importer<'b, 'a> {
     file: PathBuf,
     /// Images by (glTF image, use).
     images: HashMap<(usize, ImageUse), u32>,
-    /// BSDFs by (material, has uvs).
-    bsdfs: HashMap<(Option<usize>, bool), (u32, bool)>,
+    /// BSDFs by (material, has uvs, has vertex colours).
+    bsdfs: HashMap<(Option<usize>, bool, bool), (u32, bool)>,
 }
 
 impl Builder<'_> {
@@ -614,11 +622,38 @@ impl Importer<'_, '_> {
                 ));
                 continue;
             }
-            let mut tri = self.read_primitive(&p, &at)?;
+            let (mut tri, colours) = self.read_primitive(&p, &at)?;
             tri.transform(&t);
             let has_uvs = !tri.uvs.is_empty();
-            let (bsdf, needs_tangents) = self.bsdf(p.material(), has_uvs)?;
-            if needs_tangents && !tri.compute_tangents() {
+            let material = p.material();
+            let pbr = material.pbr_metallic_roughness();
+            let textured = has_uvs && pbr.base_color_texture().is_some();
+            if colours.is_some() && textured {
+                self.b.warnings.push(format!(
+                    "{}: {at}: vertex colours under a base colour texture are ignored",
+                    self.file.display()
+                ));
+            }
+            if let Some(mut c) = colours.filter(|_| !textured) {
+                // The factor is baked in: the colour is factor × COLOR_0.
+                let f = pbr.base_color_factor();
+                for rgb in c.chunks_exact_mut(3) {
+                    for (v, f) in rgb.iter_mut().zip(f) {
+                        *v *= f;
+                    }
+                }
+                let named = NamedAttribute {
+                    name: VERTEX_COLOUR.to_string(),
+                    channels: 3,
+                    values: c,
+                };
+                tri = tri
+                    .with_attributes(vec![named])
+                    .map_err(|e| self.error(format!("{at}: {e}")))?;
+            }
+            let coloured = !tri.attributes.is_empty();
+            let (bsdf, needs_tangents) = self.bsdf(material, has_uvs, coloured)?;
+            if needs_tangents && tri.tangents.is_empty() && !tri.compute_tangents() {
                 return Err(self.error(format!("{at}: no MikkTSpace tangents for its normal map")));
             }
             let emission = self.emission(&p.material())?;
@@ -636,7 +671,13 @@ impl Importer<'_, '_> {
         Ok(())
     }
 
-    fn read_primitive(&self, p: &gltf::Primitive, at: &str) -> Result<TriangleMesh, SceneError> {
+    /// The primitive's triangles (with its tangents where it has them)
+    /// and its vertex colours (`COLOR_0`, RGB).
+    fn read_primitive(
+        &self,
+        p: &gltf::Primitive,
+        at: &str,
+    ) -> Result<(TriangleMesh, Option<Vec<f32>>), SceneError> {
         let buffers = &self.model.buffers;
         let reader = p.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
         let positions: Vec<Vec3> = reader
@@ -673,15 +714,37 @@ impl Importer<'_, '_> {
         } else {
             Vec::new()
         };
-        TriangleMesh::new(positions, normals, uvs, indices, false, false)
-            .map_err(|e| self.error(format!("{at}: {e}")))
+        let tangents: Vec<Vec4> = reader
+            .read_tangents()
+            .map(|t| t.map(Vec4::from).collect())
+            .unwrap_or_default();
+        let colours: Option<Vec<f32>> = reader
+            .read_colors(0)
+            .map(|c| c.into_rgb_f32().flatten().collect())
+            .filter(|c: &Vec<f32>| c.len() == positions.len() * 3);
+        let count = positions.len();
+        let mut mesh = TriangleMesh::new(positions, normals, uvs, indices, false, false)
+            .map_err(|e| self.error(format!("{at}: {e}")))?;
+        if tangents.len() == count && !mesh.uvs.is_empty() {
+            mesh.tangents = mesh
+                .indices
+                .iter()
+                .map(|t| t.map(|v| tangents[v as usize]))
+                .collect();
+        }
+        Ok((mesh, colours))
     }
 
     /// The BSDF of glTF material `material` (None: the default material)
     /// on a mesh with or without uvs, and whether it reads MikkTSpace
     /// tangents.
-    fn bsdf(&mut self, material: gltf::Material, has_uvs: bool) -> Result<(u32, bool), SceneError> {
-        let key = (material.index(), has_uvs);
+    fn bsdf(
+        &mut self,
+        material: gltf::Material,
+        has_uvs: bool,
+        has_colours: bool,
+    ) -> Result<(u32, bool), SceneError> {
+        let key = (material.index(), has_uvs, has_colours);
         if let Some(&found) = self.bsdfs.get(&key) {
             return Ok(found);
         }
@@ -694,6 +757,11 @@ impl Importer<'_, '_> {
                 t.texture_transform(),
                 ImageUse::Color(bits([r, g, b])),
             )?,
+            None if has_colours => {
+                let name = self.b.sb.attribute_name(VERTEX_COLOUR);
+                let t = Texture::MeshAttribute(MeshAttribute { name, scale: 1.0 });
+                Tex::Texture(self.b.sb.add_texture(t))
+            }
             None => Tex::Const(Rgb::new(r, g, b)),
         };
         let mr = pbr.metallic_roughness_texture().filter(|_| has_uvs);
