@@ -11,6 +11,7 @@ pub mod desc;
 pub mod error;
 pub mod gltf;
 pub mod image_io;
+pub mod lua;
 pub mod mesh;
 pub mod ocio;
 mod params;

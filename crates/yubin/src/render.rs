@@ -24,8 +24,8 @@ const CORNELL_BOX: &str = include_str!("../../../scenes/cornell-box.xml");
 /// Arguments of `yubin render`.
 #[derive(Debug, clap::Args)]
 pub struct RenderArgs {
-    /// Scene file: Mitsuba 3 XML, or glTF 2.0 (.gltf, .glb). Without one,
-    /// the built-in Cornell box.
+    /// Scene file: Mitsuba 3 XML, glTF 2.0 (.gltf, .glb) or a Lua script
+    /// (.lua). Without one, the built-in Cornell box.
     scene: Option<PathBuf>,
     /// Output image: .exr (linear float32, with any extra layers) or .png
     /// (8-bit sRGB). Default: the scene's name with .exr, or
@@ -42,6 +42,9 @@ pub struct RenderArgs {
     /// model (default: the file's lights, else a white environment).
     #[arg(long, value_name = "HDRI")]
     env: Option<PathBuf>,
+    /// Lua scenes: let the script read files outside its own directory.
+    #[arg(long)]
+    allow_read: bool,
     /// glTF scenes: image width in pixels (default 1024).
     #[arg(long)]
     width: Option<u32>,
@@ -565,6 +568,16 @@ fn load(args: &RenderArgs) -> Result<(LoadedScene, PathBuf)> {
             };
             let loaded = yubin_scene::gltf::load_gltf(path, &options)?;
             let default_out = Path::new(path.file_stem().unwrap_or_default()).with_extension("exr");
+            Ok((loaded, args.output.clone().unwrap_or(default_out)))
+        }
+        Some(path) if yubin_scene::lua::is_lua(path) => {
+            let options = yubin_scene::lua::LuaOptions {
+                allow_read_anywhere: args.allow_read,
+            };
+            let (loaded, named) = yubin_scene::lua::load_lua(path, &options)?;
+            let default_out = named.unwrap_or_else(|| {
+                Path::new(path.file_stem().unwrap_or_default()).with_extension("exr")
+            });
             Ok((loaded, args.output.clone().unwrap_or(default_out)))
         }
         Some(path) => {

@@ -1,0 +1,827 @@
+//! Lua scene scripts: `yubin render scene.lua` runs a Lua 5.4 script that
+//! builds the scene through a `gr` table, in the spirit of seed 000 (and
+//! the CS488 ray tracer it grew from). The script describes objects as the
+//! XML front end does, and the same builder makes the scene, so a script
+//! and the XML written by hand for the same scene render the same image.
+//!
+//! ```lua
+//! uv_scale = 0.5
+//! metalplate = gr.material({
+//!   albedo = gr.image("tex/Metal_Plate_007_COLOR.png", true, uv_scale, 1.0),
+//!   normal = gr.image("tex/Metal_Plate_007_NORM.png", false, uv_scale),
+//!   roughness = gr.image("tex/Metal_Plate_007_ROUGH_fix.png", false, uv_scale),
+//!   metallic = gr.const(1.0),
+//! })
+//! root = gr.node("root")
+//! ball = gr.sphere("ball")
+//! ball:set_material(metalplate)
+//! ball:translate(0, 1, 0)
+//! root:add_child(ball)
+//! gr.render{scene = root, output = "ball.png", width = 640, height = 480,
+//!           eye = {0, 2, 8}, view = {0, -0.2, -1}, up = {0, 1, 0}, fov = 40,
+//!           lights = {gr.light({4, 6, 4}, {40, 40, 40})}, ambient = {0.1, 0.1, 0.1}}
+//! ```
+//!
+//! | function | makes |
+//! |---|---|
+//! | `gr.const(v)`, `gr.const(r, g, b)` | a constant (one number is grey) |
+//! | `gr.image(path, srgb, uv_scale, value_scale)` or `gr.image(path, {srgb=, uv_scale=, value_scale=})` | a `bitmap` texture: `srgb` (default true) decodes sRGB, `uv_scale` multiplies uv, `value_scale` the values (a `scale` texture) |
+//! | `gr.material{albedo=, roughness=, metallic=, specular=, normal=, emission=}` | a `principled` BSDF (numbers, `{r, g, b}`, `gr.const` or `gr.image` for each); `normal` a tangent-space normal map (`normalmap`), `emission` the radiance of an area light on every shape that wears it |
+//! | `gr.node(name)` | a transform node |
+//! | `gr.sphere(name)`, `gr.cube(name)` | the unit sphere at the origin, the cube [0, 1]³ (CS488's) |
+//! | `gr.mesh(name, path)` | an OBJ or PLY mesh |
+//! | `gr.load(path)` | a glTF model (`.gltf`, `.glb`) as a node, or a Mitsuba XML scene's shapes and emitters (at the top level only) |
+//! | `node:translate(x, y, z)`, `node:rotate(axis, degrees)`, `node:scale(x, y, z)` | transforms applied after the node's earlier ones (`axis` `'x'`, `'y'` or `'z'`) |
+//! | `node:add_child(child)`, `node:set_material(m)` | the hierarchy; a node without material wears its parent's |
+//! | `gr.light(position, colour)` | a point light of that radiant intensity (a third CS488 falloff argument is ignored: the falloff is physical) |
+//! | `gr.render{scene=, output=, width=, height=, spp=, eye=, view= or target=, up=, fov=, lights=, ambient=, env=, max_depth=}` | the render: the camera (vertical `fov` in degrees), lights, a constant `ambient` environment, an `env` map; also CS488's `gr.render(root, output, w, h, eye, view, up, fov, ambient, lights)` |
+//!
+//! Errors carry the script's name and line (`scene.lua:12: ...`). The
+//! script runs sandboxed: only Lua's `table`, `string`, `math`, `utf8` and
+//! `coroutine` libraries (no `os`, `io`, `package`, `require`, `load`ing
+//! of files or `debug`), so it can neither run programs nor write files,
+//! and the files `gr` reads must lie below the script's directory unless
+//! `--allow-read` says otherwise.
+
+use crate::desc::{Category, Child, Object, Property, SceneDesc, Value};
+use crate::error::{Location, SceneError};
+use glam::{DMat4, DVec3};
+use mlua::{AnyUserData, Lua, StdLib, Table, UserData, UserDataMethods, Value as LuaValue};
+use std::cell::{Cell, RefCell};
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+use std::sync::Arc;
+
+/// What a script may do beyond the sandbox.
+#[derive(Clone, Debug, Default)]
+pub struct LuaOptions {
+    /// Read files anywhere (default: below the script's directory only).
+    pub allow_read_anywhere: bool,
+}
+
+/// A script's scene and the output it names.
+#[derive(Debug)]
+pub struct LuaScene {
+    /// The scene, as the XML front end would describe it.
+    pub desc: SceneDesc,
+    /// `gr.render`'s `output`, relative to the script's directory.
+    pub output: Option<PathBuf>,
+}
+
+/// Whether `path` names a Lua script (by its extension).
+pub fn is_lua(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("lua"))
+}
+
+/// Runs the script and builds its scene.
+pub fn load_lua(
+    path: &Path,
+    options: &LuaOptions,
+) -> Result<(crate::LoadedScene, Option<PathBuf>), SceneError> {
+    let scene = run_lua(path, options)?;
+    Ok((crate::build::build_scene(&scene.desc)?, scene.output))
+}
+
+/// Runs the script: the scene its `gr.render` call describes.
+pub fn run_lua(path: &Path, options: &LuaOptions) -> Result<LuaScene, SceneError> {
+    let file = Arc::new(path.to_path_buf());
+    let whole = Location::new(file.clone(), 0);
+    let source =
+        std::fs::read_to_string(path).map_err(|e| SceneError::at(&whole, e.to_string()))?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let dir = if dir.as_os_str().is_empty() {
+        PathBuf::from(".")
+    } else {
+        dir
+    };
+    let ctx = Rc::new(Ctx {
+        dir: dir.clone(),
+        root_dir: dir.canonicalize().unwrap_or(dir.clone()),
+        allow_anywhere: options.allow_read_anywhere,
+        loc: Location::new(file.clone(), 0),
+        render: RefCell::new(None),
+    });
+    let lua = sandbox().map_err(|e| lua_error(&file, e))?;
+    install_gr(&lua, &ctx).map_err(|e| lua_error(&file, e))?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    lua.load(&source)
+        .set_name(format!("@{name}"))
+        .exec()
+        .map_err(|e| lua_error(&file, e))?;
+    let render = ctx.render.borrow_mut().take();
+    let render =
+        render.ok_or_else(|| SceneError::at(&whole, "the script never calls gr.render"))?;
+    let output = render.output.clone().map(|o| dir.join(o));
+    Ok(LuaScene {
+        desc: scene_desc(&ctx, render, path)?,
+        output,
+    })
+}
+
+/// A Lua state with only the libraries that can neither reach the
+/// system nor load code from files.
+fn sandbox() -> mlua::Result<Lua> {
+    let libs = StdLib::TABLE | StdLib::STRING | StdLib::MATH | StdLib::UTF8 | StdLib::COROUTINE;
+    let lua = Lua::new_with(libs, mlua::LuaOptions::new())?;
+    let globals = lua.globals();
+    for name in ["dofile", "loadfile", "load", "require", "collectgarbage"] {
+        globals.set(name, LuaValue::Nil)?;
+    }
+    Ok(lua)
+}
+
+/// `scene.lua:12: message` as an error at that line.
+fn lua_error(file: &Arc<PathBuf>, e: mlua::Error) -> SceneError {
+    let msg = innermost(&e);
+    let name = file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let located = msg
+        .strip_prefix(&format!("{name}:"))
+        .and_then(|rest| rest.split_once(':'))
+        .and_then(|(line, rest)| Some((line.trim().parse::<u32>().ok()?, rest.trim())));
+    match located {
+        Some((line, rest)) => SceneError::at(&Location::new(file.clone(), line), rest.to_string()),
+        None => SceneError::at(&Location::new(file.clone(), 0), msg),
+    }
+}
+
+/// The message of the error a callback raised, without mlua's wrapping.
+fn innermost(e: &mlua::Error) -> String {
+    match e {
+        mlua::Error::CallbackError { cause, .. } => innermost(cause),
+        mlua::Error::RuntimeError(m) | mlua::Error::SyntaxError { message: m, .. } => {
+            // The message, without the traceback Lua appends.
+            m.split("\nstack traceback:")
+                .next()
+                .unwrap_or(m)
+                .to_string()
+        }
+        other => other.to_string(),
+    }
+}
+
+/// The script's position (`scene.lua:12`) where a `gr` function was
+/// called.
+fn here(lua: &Lua) -> String {
+    lua.inspect_stack(1)
+        .map(|d| {
+            let s = d.source();
+            format!("{}:{}", s.short_src.unwrap_or_default(), d.curr_line())
+        })
+        .unwrap_or_default()
+}
+
+fn fail(lua: &Lua, msg: impl std::fmt::Display) -> mlua::Error {
+    mlua::Error::RuntimeError(format!("{}: {msg}", here(lua)))
+}
+
+/// What every `gr` function shares.
+struct Ctx {
+    dir: PathBuf,
+    root_dir: PathBuf,
+    allow_anywhere: bool,
+    loc: Location,
+    render: RefCell<Option<Render>>,
+}
+
+impl Ctx {
+    /// A file the script names, found below its directory (unless reading
+    /// anywhere is allowed), as an absolute path.
+    fn file(&self, lua: &Lua, what: &str, name: &str) -> mlua::Result<PathBuf> {
+        let path = self.dir.join(name);
+        let found = path
+            .canonicalize()
+            .map_err(|e| fail(lua, format!("{what}: \"{name}\": {e}")))?;
+        if !self.allow_anywhere && !found.starts_with(&self.root_dir) {
+            return Err(fail(
+                lua,
+                format!(
+                    "{what}: \"{name}\" lies outside the script's directory {}; \
+                     --allow-read lets a script read anywhere",
+                    self.root_dir.display()
+                ),
+            ));
+        }
+        Ok(found)
+    }
+
+    fn prop(&self, name: &str, value: Value) -> Property {
+        Property {
+            name: name.to_string(),
+            value,
+            loc: self.loc.clone(),
+            used: Cell::new(false),
+            look_at_target: None,
+        }
+    }
+
+    fn object(&self, category: Category, kind: &str, props: Vec<Property>) -> Object {
+        let mut o = Object::new(category, kind, self.loc.clone());
+        o.props = props;
+        o
+    }
+
+    fn child(&self, name: Option<&str>, object: Rc<Object>) -> Child {
+        Child {
+            name: name.map(str::to_string),
+            object,
+            loc: self.loc.clone(),
+            used: Cell::new(false),
+        }
+    }
+}
+
+/// A texture or constant value (`gr.const`, `gr.image`).
+#[derive(Clone, Debug)]
+enum TexVal {
+    Const([f64; 3]),
+    Texture(Rc<Object>),
+}
+
+impl UserData for TexVal {}
+
+/// A material (`gr.material`).
+#[derive(Clone, Debug)]
+struct Mat {
+    bsdf: Rc<Object>,
+    emission: Option<TexVal>,
+}
+
+impl UserData for Mat {}
+
+/// A point light (`gr.light`).
+#[derive(Clone, Debug)]
+struct Light {
+    position: DVec3,
+    colour: [f64; 3],
+}
+
+impl UserData for Light {}
+
+/// What a node draws.
+#[derive(Clone, Debug)]
+enum Geometry {
+    None,
+    Sphere,
+    Cube,
+    Mesh(PathBuf),
+    Gltf(PathBuf),
+    /// A Mitsuba XML scene's shapes and emitters, and its directory.
+    Xml(Vec<Rc<Object>>, PathBuf),
+}
+
+#[derive(Debug)]
+struct NodeData {
+    transform: DMat4,
+    geometry: Geometry,
+    material: Option<Mat>,
+    children: Vec<Node>,
+}
+
+/// A node of the hierarchy (`gr.node`, `gr.sphere`, ...).
+#[derive(Clone, Debug)]
+struct Node(Rc<RefCell<NodeData>>);
+
+impl Node {
+    fn new(geometry: Geometry) -> Self {
+        Node(Rc::new(RefCell::new(NodeData {
+            transform: DMat4::IDENTITY,
+            geometry,
+            material: None,
+            children: Vec::new(),
+        })))
+    }
+
+    fn apply(&self, m: DMat4) {
+        let mut d = self.0.borrow_mut();
+        d.transform = m * d.transform;
+    }
+}
+
+impl UserData for Node {
+    fn add_methods<M: UserDataMethods<Self>>(methods: &mut M) {
+        methods.add_method("translate", |_, this, (x, y, z): (f64, f64, f64)| {
+            this.apply(DMat4::from_translation(DVec3::new(x, y, z)));
+            Ok(())
+        });
+        methods.add_method(
+            "scale",
+            |_, this, (x, y, z): (f64, Option<f64>, Option<f64>)| {
+                let s = DVec3::new(x, y.unwrap_or(x), z.unwrap_or(x));
+                this.apply(DMat4::from_scale(s));
+                Ok(())
+            },
+        );
+        methods.add_method("rotate", |lua, this, (axis, degrees): (String, f64)| {
+            let a = degrees.to_radians();
+            let m = match axis.to_ascii_lowercase().as_str() {
+                "x" => DMat4::from_rotation_x(a),
+                "y" => DMat4::from_rotation_y(a),
+                "z" => DMat4::from_rotation_z(a),
+                other => {
+                    return Err(fail(
+                        lua,
+                        format!("rotate: axis \"{other}\" is not x, y or z"),
+                    ))
+                }
+            };
+            this.apply(m);
+            Ok(())
+        });
+        methods.add_method("add_child", |lua, this, child: AnyUserData| {
+            let child = child
+                .borrow::<Node>()
+                .map_err(|_| fail(lua, "add_child: the child must be a node"))?
+                .clone();
+            if Rc::ptr_eq(&this.0, &child.0) {
+                return Err(fail(lua, "add_child: a node cannot be its own child"));
+            }
+            this.0.borrow_mut().children.push(child);
+            Ok(())
+        });
+        methods.add_method("set_material", |lua, this, m: AnyUserData| {
+            let m = m
+                .borrow::<Mat>()
+                .map_err(|_| fail(lua, "set_material: expects a gr.material"))?
+                .clone();
+            this.0.borrow_mut().material = Some(m);
+            Ok(())
+        });
+    }
+}
+
+/// `gr.render`'s settings.
+#[derive(Debug)]
+struct Render {
+    scene: Node,
+    output: Option<String>,
+    width: i64,
+    height: i64,
+    spp: i64,
+    eye: DVec3,
+    target: DVec3,
+    up: DVec3,
+    fov: f64,
+    lights: Vec<Light>,
+    ambient: [f64; 3],
+    env: Option<PathBuf>,
+    max_depth: Option<i64>,
+}
+
+/// Three numbers from a table `{x, y, z}` (or one number, repeated).
+fn triple(lua: &Lua, what: &str, v: &LuaValue) -> mlua::Result<[f64; 3]> {
+    match v {
+        LuaValue::Number(n) => Ok([*n; 3]),
+        LuaValue::Integer(n) => Ok([*n as f64; 3]),
+        LuaValue::Table(t) => {
+            let get = |i: i64| t.get::<f64>(i);
+            match (get(1), get(2), get(3)) {
+                (Ok(a), Ok(b), Ok(c)) => Ok([a, b, c]),
+                _ => Err(fail(
+                    lua,
+                    format!("{what}: expects three numbers {{x, y, z}}"),
+                )),
+            }
+        }
+        _ => Err(fail(
+            lua,
+            format!("{what}: expects three numbers {{x, y, z}}"),
+        )),
+    }
+}
+
+/// A texture-valued argument: a number, `{r, g, b}`, `gr.const` or
+/// `gr.image`.
+fn tex_value(lua: &Lua, what: &str, v: &LuaValue) -> mlua::Result<TexVal> {
+    match v {
+        LuaValue::UserData(ud) => ud.borrow::<TexVal>().map(|t| t.clone()).map_err(|_| {
+            fail(
+                lua,
+                format!("{what}: expects a number, {{r, g, b}}, gr.const or gr.image"),
+            )
+        }),
+        other => triple(lua, what, other).map(TexVal::Const),
+    }
+}
+
+fn install_gr(lua: &Lua, ctx: &Rc<Ctx>) -> mlua::Result<()> {
+    let gr = lua.create_table()?;
+    gr.set(
+        "const",
+        lua.create_function(|_, (r, g, b): (f64, Option<f64>, Option<f64>)| {
+            Ok(TexVal::Const([r, g.unwrap_or(r), b.unwrap_or(r)]))
+        })?,
+    )?;
+    let c = ctx.clone();
+    gr.set(
+        "image",
+        lua.create_function(
+            move |lua, (path, a, b, d): (String, LuaValue, Option<f64>, Option<f64>)| {
+                let (srgb, uv_scale, value_scale) = match &a {
+                    LuaValue::Table(t) => (
+                        t.get::<Option<bool>>("srgb")?.unwrap_or(true),
+                        t.get::<Option<f64>>("uv_scale")?.unwrap_or(1.0),
+                        t.get::<Option<f64>>("value_scale")?.unwrap_or(1.0),
+                    ),
+                    LuaValue::Boolean(s) => (*s, b.unwrap_or(1.0), d.unwrap_or(1.0)),
+                    LuaValue::Nil => (true, b.unwrap_or(1.0), d.unwrap_or(1.0)),
+                    _ => {
+                        return Err(fail(
+                            lua,
+                            "gr.image: the second argument is srgb or an options table",
+                        ))
+                    }
+                };
+                let file = c.file(lua, "gr.image", &path)?;
+                let mut props = vec![c.prop(
+                    "filename",
+                    Value::String(file.to_string_lossy().into_owned()),
+                )];
+                if !srgb {
+                    props.push(c.prop("raw", Value::Boolean(true)));
+                }
+                if uv_scale != 1.0 {
+                    let s = DMat4::from_scale(DVec3::new(uv_scale, uv_scale, 1.0));
+                    props.push(c.prop("to_uv", Value::Transform(s)));
+                }
+                let bitmap = Rc::new(c.object(Category::Texture, "bitmap", props));
+                if value_scale == 1.0 {
+                    return Ok(TexVal::Texture(bitmap));
+                }
+                let mut scaled = c.object(
+                    Category::Texture,
+                    "scale",
+                    vec![c.prop("scale", Value::Float(value_scale))],
+                );
+                scaled.children.push(c.child(Some("texture"), bitmap));
+                Ok(TexVal::Texture(Rc::new(scaled)))
+            },
+        )?,
+    )?;
+    let c = ctx.clone();
+    gr.set(
+        "material",
+        lua.create_function(move |lua, t: Table| {
+            let mut principled = c.object(Category::Bsdf, "principled", vec![]);
+            let mut normal = None;
+            let mut emission = None;
+            for pair in t.pairs::<String, LuaValue>() {
+                let (key, v) = pair?;
+                let name = match key.as_str() {
+                    "albedo" | "base_color" => "base_color",
+                    "roughness" | "metallic" | "specular" => key.as_str(),
+                    "normal" => {
+                        normal = Some(tex_value(lua, "gr.material normal", &v)?);
+                        continue;
+                    }
+                    "emission" => {
+                        emission = Some(tex_value(lua, "gr.material emission", &v)?);
+                        continue;
+                    }
+                    other => {
+                        return Err(fail(
+                            lua,
+                            format!(
+                                "gr.material: unknown parameter \"{other}\" (albedo, roughness, \
+                                 metallic, specular, normal, emission)"
+                            ),
+                        ))
+                    }
+                };
+                match tex_value(lua, &format!("gr.material {key}"), &v)? {
+                    TexVal::Const(rgb) if name == "base_color" => principled
+                        .props
+                        .push(c.prop(name, Value::Rgb(rgb.map(|x| x as f32)))),
+                    TexVal::Const(rgb) => principled.props.push(c.prop(name, Value::Float(rgb[0]))),
+                    TexVal::Texture(o) => principled.children.push(c.child(Some(name), o)),
+                }
+            }
+            let mut bsdf = Rc::new(principled);
+            if let Some(n) = normal {
+                let TexVal::Texture(map) = n else {
+                    return Err(fail(lua, "gr.material normal: expects gr.image"));
+                };
+                let mut nm = c.object(Category::Bsdf, "normalmap", vec![]);
+                nm.children.push(c.child(Some("normalmap"), map));
+                nm.children.push(c.child(None, bsdf));
+                bsdf = Rc::new(nm);
+            }
+            Ok(Mat { bsdf, emission })
+        })?,
+    )?;
+    gr.set(
+        "node",
+        lua.create_function(|_, _name: Option<String>| Ok(Node::new(Geometry::None)))?,
+    )?;
+    gr.set(
+        "sphere",
+        lua.create_function(|_, _name: Option<String>| Ok(Node::new(Geometry::Sphere)))?,
+    )?;
+    gr.set(
+        "cube",
+        lua.create_function(|_, _name: Option<String>| Ok(Node::new(Geometry::Cube)))?,
+    )?;
+    let c = ctx.clone();
+    gr.set(
+        "mesh",
+        lua.create_function(move |lua, (_name, path): (String, String)| {
+            Ok(Node::new(Geometry::Mesh(c.file(lua, "gr.mesh", &path)?)))
+        })?,
+    )?;
+    let c = ctx.clone();
+    gr.set(
+        "load",
+        lua.create_function(move |lua, path: String| {
+            let file = c.file(lua, "gr.load", &path)?;
+            if crate::gltf::is_gltf(&file) {
+                return Ok(Node::new(Geometry::Gltf(file)));
+            }
+            let desc = crate::xml::parse_file(&file, &[])
+                .map_err(|e| fail(lua, format!("gr.load: {e}")))?;
+            let objects = desc
+                .root
+                .children
+                .iter()
+                .filter(|c| matches!(c.object.category, Category::Shape | Category::Emitter))
+                .map(|c| c.object.clone())
+                .collect();
+            let dir = file.parent().map(Path::to_path_buf).unwrap_or_default();
+            Ok(Node::new(Geometry::Xml(objects, dir)))
+        })?,
+    )?;
+    gr.set(
+        "light",
+        lua.create_function(|lua, (p, c, _falloff): (LuaValue, LuaValue, LuaValue)| {
+            Ok(Light {
+                position: DVec3::from(triple(lua, "gr.light position", &p)?),
+                colour: triple(lua, "gr.light colour", &c)?,
+            })
+        })?,
+    )?;
+    let c = ctx.clone();
+    gr.set(
+        "render",
+        lua.create_function(move |lua, args: mlua::MultiValue| {
+            let render = render_args(lua, &c, args)?;
+            if c.render.borrow().is_some() {
+                return Err(fail(lua, "gr.render: called twice (one render per script)"));
+            }
+            *c.render.borrow_mut() = Some(render);
+            Ok(())
+        })?,
+    )?;
+    lua.globals().set("gr", gr)
+}
+
+/// `gr.render`'s arguments, as a table or CS488's positional list.
+fn render_args(lua: &Lua, ctx: &Ctx, args: mlua::MultiValue) -> mlua::Result<Render> {
+    let args: Vec<LuaValue> = args.into_iter().collect();
+    let named: Table = match args.first() {
+        Some(LuaValue::Table(t)) => t.clone(),
+        Some(LuaValue::UserData(_)) => {
+            let t = lua.create_table()?;
+            let names = [
+                "scene", "output", "width", "height", "eye", "view", "up", "fov", "ambient",
+                "lights",
+            ];
+            for (name, v) in names.iter().zip(args.iter()) {
+                t.set(*name, v.clone())?;
+            }
+            t
+        }
+        _ => return Err(fail(lua, "gr.render: expects a table {scene = root, ...}")),
+    };
+    let scene: AnyUserData = named
+        .get::<Option<AnyUserData>>("scene")?
+        .ok_or_else(|| fail(lua, "gr.render: needs scene = a node"))?;
+    let scene = scene
+        .borrow::<Node>()
+        .map_err(|_| fail(lua, "gr.render: scene must be a node"))?
+        .clone();
+    let vec3 = |name: &str, default: [f64; 3]| -> mlua::Result<DVec3> {
+        match named.get::<LuaValue>(name)? {
+            LuaValue::Nil => Ok(DVec3::from(default)),
+            v => triple(lua, &format!("gr.render {name}"), &v).map(DVec3::from),
+        }
+    };
+    let eye = vec3("eye", [0.0, 0.0, 5.0])?;
+    let target = match named.get::<LuaValue>("target")? {
+        LuaValue::Nil => eye + vec3("view", [0.0, 0.0, -1.0])?,
+        v => DVec3::from(triple(lua, "gr.render target", &v)?),
+    };
+    let mut lights = Vec::new();
+    if let Some(list) = named.get::<Option<Table>>("lights")? {
+        for v in list.sequence_values::<AnyUserData>() {
+            let l = v?
+                .borrow::<Light>()
+                .map_err(|_| fail(lua, "gr.render lights: expects gr.light values"))?
+                .clone();
+            lights.push(l);
+        }
+    }
+    let env = match named.get::<Option<String>>("env")? {
+        Some(e) => Some(ctx.file(lua, "gr.render env", &e)?),
+        None => None,
+    };
+    Ok(Render {
+        scene,
+        output: named.get("output")?,
+        width: named.get::<Option<i64>>("width")?.unwrap_or(640),
+        height: named.get::<Option<i64>>("height")?.unwrap_or(480),
+        spp: named.get::<Option<i64>>("spp")?.unwrap_or(64),
+        eye,
+        target,
+        up: vec3("up", [0.0, 1.0, 0.0])?,
+        fov: named.get::<Option<f64>>("fov")?.unwrap_or(40.0),
+        lights,
+        ambient: match named.get::<LuaValue>("ambient")? {
+            LuaValue::Nil => [0.0; 3],
+            v => triple(lua, "gr.render ambient", &v)?,
+        },
+        env,
+        max_depth: named.get("max_depth")?,
+    })
+}
+
+/// Mitsuba's `lookat`: +z towards the target, +x to the left.
+fn look_at(origin: DVec3, target: DVec3, up: DVec3) -> DMat4 {
+    let dir = (target - origin).normalize();
+    let left = up.cross(dir).normalize();
+    let new_up = dir.cross(left);
+    DMat4::from_cols(
+        left.extend(0.0),
+        new_up.extend(0.0),
+        dir.extend(0.0),
+        origin.extend(1.0),
+    )
+}
+
+/// The scene description of a finished script.
+fn scene_desc(ctx: &Ctx, r: Render, path: &Path) -> Result<SceneDesc, SceneError> {
+    let mut top: Vec<Rc<Object>> = Vec::new();
+    let mut integrator = ctx.object(Category::Integrator, "path", vec![]);
+    if let Some(d) = r.max_depth {
+        integrator
+            .props
+            .push(ctx.prop("max_depth", Value::Integer(d)));
+    }
+    top.push(Rc::new(integrator));
+    let mut sensor = ctx.object(
+        Category::Sensor,
+        "perspective",
+        vec![
+            ctx.prop("fov", Value::Float(r.fov)),
+            ctx.prop("fov_axis", Value::String("y".into())),
+            ctx.prop("to_world", Value::Transform(look_at(r.eye, r.target, r.up))),
+        ],
+    );
+    let film = ctx.object(
+        Category::Film,
+        "hdrfilm",
+        vec![
+            ctx.prop("width", Value::Integer(r.width)),
+            ctx.prop("height", Value::Integer(r.height)),
+        ],
+    );
+    let sampler = ctx.object(
+        Category::Sampler,
+        "independent",
+        vec![ctx.prop("sample_count", Value::Integer(r.spp))],
+    );
+    sensor.children.push(ctx.child(None, Rc::new(film)));
+    sensor.children.push(ctx.child(None, Rc::new(sampler)));
+    top.push(Rc::new(sensor));
+    for l in &r.lights {
+        top.push(Rc::new(ctx.object(
+            Category::Emitter,
+            "point",
+            vec![
+                ctx.prop("position", Value::Point(l.position.as_vec3())),
+                ctx.prop("intensity", Value::Rgb(l.colour.map(|x| x as f32))),
+            ],
+        )));
+    }
+    if r.ambient != [0.0; 3] {
+        top.push(Rc::new(ctx.object(
+            Category::Emitter,
+            "constant",
+            vec![ctx.prop("radiance", Value::Rgb(r.ambient.map(|x| x as f32)))],
+        )));
+    }
+    if let Some(env) = &r.env {
+        top.push(Rc::new(ctx.object(
+            Category::Emitter,
+            "envmap",
+            vec![ctx.prop(
+                "filename",
+                Value::String(env.to_string_lossy().into_owned()),
+            )],
+        )));
+    }
+    let mut search_paths = vec![ctx.dir.clone()];
+    shapes(
+        ctx,
+        &r.scene,
+        DMat4::IDENTITY,
+        None,
+        &mut top,
+        &mut search_paths,
+    )?;
+    let mut root = ctx.object(Category::Scene, "scene", vec![]);
+    root.children = top.into_iter().map(|o| ctx.child(None, o)).collect();
+    Ok(SceneDesc {
+        root: Rc::new(root),
+        version: (3, 0, 0),
+        file: path.to_path_buf(),
+        search_paths,
+    })
+}
+
+/// The shapes of `node` and its children, placed by `parent` and wearing
+/// `inherited` where they have no material of their own; the directories
+/// of loaded XML scenes join the search paths.
+fn shapes(
+    ctx: &Ctx,
+    node: &Node,
+    parent: DMat4,
+    inherited: Option<&Mat>,
+    out: &mut Vec<Rc<Object>>,
+    search_paths: &mut Vec<PathBuf>,
+) -> Result<(), SceneError> {
+    let d = node.0.borrow();
+    let m = parent * d.transform;
+    let material = d.material.as_ref().or(inherited);
+    let shape = |kind: &str, to_world: DMat4, extra: Vec<Property>| {
+        let mut props = vec![ctx.prop("to_world", Value::Transform(to_world))];
+        props.extend(extra);
+        let mut o = ctx.object(Category::Shape, kind, props);
+        if let Some(mat) = material {
+            o.children.push(ctx.child(None, mat.bsdf.clone()));
+            if let Some(e) = &mat.emission {
+                let mut area = ctx.object(Category::Emitter, "area", vec![]);
+                match e {
+                    TexVal::Const(rgb) => area
+                        .props
+                        .push(ctx.prop("radiance", Value::Rgb(rgb.map(|x| x as f32)))),
+                    TexVal::Texture(t) => {
+                        area.children.push(ctx.child(Some("radiance"), t.clone()))
+                    }
+                }
+                o.children.push(ctx.child(None, Rc::new(area)));
+            }
+        }
+        Rc::new(o)
+    };
+    let path_prop =
+        |p: &Path| ctx.prop("filename", Value::String(p.to_string_lossy().into_owned()));
+    match &d.geometry {
+        Geometry::None => {}
+        Geometry::Sphere => out.push(shape("sphere", m, vec![])),
+        // CS488's cube is [0, 1]³; Mitsuba's [−1, 1]³.
+        Geometry::Cube => out.push(shape(
+            "cube",
+            m * DMat4::from_translation(DVec3::splat(0.5)) * DMat4::from_scale(DVec3::splat(0.5)),
+            vec![],
+        )),
+        Geometry::Mesh(p) => {
+            let kind = match p.extension().and_then(|e| e.to_str()) {
+                Some(e) if e.eq_ignore_ascii_case("ply") => "ply",
+                _ => "obj",
+            };
+            out.push(shape(kind, m, vec![path_prop(p)]));
+        }
+        Geometry::Gltf(p) => {
+            let o = ctx.object(
+                Category::Shape,
+                "gltf",
+                vec![path_prop(p), ctx.prop("to_world", Value::Transform(m))],
+            );
+            out.push(Rc::new(o));
+        }
+        Geometry::Xml(objects, dir) => {
+            // Its shapes and emitters, where the XML put them.
+            if m != DMat4::IDENTITY {
+                return Err(SceneError::at(
+                    &ctx.loc,
+                    format!(
+                        "gr.load of an XML scene ({}) cannot be transformed: its shapes keep \
+                         their own to_world (load it into the root node)",
+                        dir.display()
+                    ),
+                ));
+            }
+            out.extend(objects.iter().cloned());
+            search_paths.push(dir.clone());
+        }
+    }
+    for child in &d.children {
+        shapes(ctx, child, m, material, out, search_paths)?;
+    }
+    Ok(())
+}

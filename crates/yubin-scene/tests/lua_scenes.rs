@@ -1,0 +1,136 @@
+//! Lua scene scripts: a script and the XML written by hand for the same
+//! scene render the same image bit for bit; errors name the script's
+//! line; the sandbox refuses running programs, writing files and reading
+//! outside the script's directory.
+
+use std::path::{Path, PathBuf};
+use yubin_core::render::{render, RenderSettings};
+use yubin_scene::lua::{load_lua, LuaOptions};
+use yubin_scene::{load_scene_str, LoadedScene};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("yubin-lua-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn image(s: &LoadedScene) -> Vec<f32> {
+    render(
+        &s.scene,
+        s.integrator.as_ref(),
+        &RenderSettings { spp: 8, seed: 5 },
+        &|_| {},
+    )
+    .image
+    .data
+}
+
+/// A red sphere on a grey slab (CS488's unit cube, scaled), a point light
+/// and a dim constant environment. Every number is exact in binary, so
+/// the order in which transforms are multiplied cannot matter.
+const SCRIPT: &str = r#"red = gr.material({albedo = {0.8, 0.2, 0.1}, roughness = 0.4})
+grey = gr.material({albedo = gr.const(0.5), roughness = 0.75, metallic = 0})
+root = gr.node("root")
+ball = gr.sphere("ball")
+ball:set_material(red)
+ball:translate(0, 1, 0)
+root:add_child(ball)
+floor = gr.cube("floor")
+floor:scale(8, 0.25, 8)
+floor:translate(-4, -0.25, -4)
+floor:set_material(grey)
+root:add_child(floor)
+gr.render{scene = root, output = "out.png", width = 64, height = 48, spp = 8,
+  eye = {0, 1, 8}, target = {0, 1, 0}, up = {0, 1, 0}, fov = 40,
+  lights = {gr.light({4, 6, 4}, {60, 60, 60})}, ambient = {0.125, 0.125, 0.125}}
+"#;
+
+/// The same scene in Mitsuba XML: the slab is Mitsuba's cube [−1, 1]³
+/// moved onto [0, 1]³ first.
+const XML: &str = r#"<scene version="3.0.0">
+    <integrator type="path"/>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <string name="fov_axis" value="y"/>
+        <transform name="to_world"><lookat origin="0,1,8" target="0,1,0" up="0,1,0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/></film>
+        <sampler type="independent"><integer name="sample_count" value="8"/></sampler>
+    </sensor>
+    <emitter type="point"><point name="position" x="4" y="6" z="4"/><rgb name="intensity" value="60"/></emitter>
+    <emitter type="constant"><rgb name="radiance" value="0.125"/></emitter>
+    <shape type="sphere">
+        <transform name="to_world"><translate y="1"/></transform>
+        <bsdf type="principled"><rgb name="base_color" value="0.8, 0.2, 0.1"/><float name="roughness" value="0.4"/></bsdf>
+    </shape>
+    <shape type="cube">
+        <transform name="to_world">
+            <scale value="0.5"/><translate value="0.5"/>
+            <scale x="8" y="0.25" z="8"/><translate x="-4" y="-0.25" z="-4"/>
+        </transform>
+        <bsdf type="principled"><rgb name="base_color" value="0.5"/><float name="roughness" value="0.75"/><float name="metallic" value="0"/></bsdf>
+    </shape>
+</scene>"#;
+
+#[test]
+fn a_script_renders_as_the_same_scene_in_xml() {
+    let dir = scratch("same");
+    let script = dir.join("scene.lua");
+    std::fs::write(&script, SCRIPT).unwrap();
+    let (lua, output) = load_lua(&script, &LuaOptions::default()).expect("the script runs");
+    assert_eq!(output, Some(dir.join("out.png")));
+    let xml = load_scene_str(XML, &dir.join("scene.xml"), &[]).expect("the XML loads");
+    let (a, b) = (image(&lua), image(&xml));
+    assert!(
+        a.iter().any(|&v| v > 0.0),
+        "the script's scene renders black"
+    );
+    assert!(a == b, "the script and the XML render differently");
+}
+
+/// The error of running `text` as `scene.lua` in a fresh directory.
+fn error_of(name: &str, text: &str) -> String {
+    let dir = scratch(name);
+    let script = dir.join("scene.lua");
+    std::fs::write(&script, text).unwrap();
+    match load_lua(&script, &LuaOptions::default()) {
+        Ok(_) => panic!("{name}: the script ran"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn errors_name_the_script_and_line() {
+    let syntax = error_of("syntax", "x = 1\ny = = 2\n");
+    assert!(syntax.contains("scene.lua:2"), "{syntax}");
+    let runtime = error_of("runtime", "a = 1\nb = gr.sphere('s')\nb:rotate('q', 10)\n");
+    assert!(
+        runtime.contains("scene.lua:3") && runtime.contains("axis"),
+        "{runtime}"
+    );
+    let lua_error = error_of("nil", "x = nil\n\nx.y = 3\n");
+    assert!(lua_error.contains("scene.lua:3"), "{lua_error}");
+    let no_render = error_of("norender", "x = 1\n");
+    assert!(no_render.contains("gr.render"), "{no_render}");
+}
+
+#[test]
+fn the_sandbox_refuses_programs_writes_and_reads_outside() {
+    let run = error_of("os", "os.execute('touch /tmp/yubin-lua-pwned')\n");
+    assert!(run.contains("scene.lua:1") && run.contains("os"), "{run}");
+    assert!(!Path::new("/tmp/yubin-lua-pwned").exists());
+    let write = error_of("io", "local f = io.open('written.txt', 'w')\n");
+    assert!(
+        write.contains("scene.lua:1") && write.contains("io"),
+        "{write}"
+    );
+    let load = error_of("loadfile", "dofile('/etc/passwd')\n");
+    assert!(load.contains("scene.lua:1"), "{load}");
+    let secret = std::env::temp_dir().join(format!("yubin-lua-secret-{}.png", std::process::id()));
+    std::fs::write(&secret, b"not for scripts").unwrap();
+    let name = secret.file_name().unwrap().to_string_lossy();
+    let outside = error_of("outside", &format!("t = gr.image('../{name}')\n"));
+    assert!(
+        outside.contains("scene.lua:1") && outside.contains("outside the script's directory"),
+        "{outside}"
+    );
+}
