@@ -43,6 +43,10 @@ pub struct LoadedScene {
     pub seed: u32,
     /// Things that loaded but deserve a mention (ignored legacy parameters).
     pub warnings: Vec<String>,
+    /// The key (`Scene::parameters`) each described object was given, by
+    /// the object's address in the description it was built from: what
+    /// ties a description's values to the scene's parameters.
+    pub object_keys: HashMap<usize, String>,
 }
 
 /// Parses and builds a Mitsuba XML scene file; `defines` are `-D name=value`.
@@ -81,6 +85,7 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         suffixes: HashMap::new(),
         ids: all_ids(&desc.root),
         parents: Vec::new(),
+        object_keys: HashMap::new(),
     };
     let root = &desc.root;
     let integrator = match root.single_child(Category::Integrator)? {
@@ -172,6 +177,7 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         integrator,
         seed,
         warnings: b.warnings,
+        object_keys: b.object_keys,
     })
 }
 
@@ -225,6 +231,8 @@ pub(crate) struct Builder<'a> {
     /// Keys of the objects being built, innermost last: a nested object
     /// without an id is named after its parent.
     parents: Vec<String>,
+    /// Every object's key, by address ([`LoadedScene::object_keys`]).
+    object_keys: HashMap<usize, String>,
 }
 
 /// The ids of `obj` and every object nested in it.
@@ -676,6 +684,8 @@ impl Builder<'_> {
         }
         self.suffixes.insert(base, n);
         self.keys.insert(key.clone());
+        self.object_keys
+            .insert(obj as *const Object as usize, key.clone());
         key
     }
 

@@ -36,6 +36,16 @@
 //! | `gr.light(position, colour)` | a point light of that radiant intensity (a third CS488 falloff argument is ignored: the falloff is physical) |
 //! | `gr.render{scene=, output=, width=, height=, spp=, eye=, view= or target=, up=, fov=, lights=, ambient=, env=, max_depth=}` | the render: the camera (vertical `fov` in degrees), lights, a constant `ambient` environment, an `env` map; also CS488's `gr.render(root, output, w, h, eye, view, up, fov, ambient, lights)` |
 //!
+//! **Animation**: the script runs once per frame with the globals `frame`
+//! (its number) and `time` (seconds, `frame / fps`), and shapes motion
+//! with the easing curves of the `ease` table (`ease.linear`, `in_quad`,
+//! `out_quad`, `in_out_quad`, `in_cubic`, `out_cubic`, `in_out_cubic`,
+//! and seed 000's `ease.cosine`, ½ − ½ cos πt), all of t ∈ [0, 1], and
+//! `ease.between(a, b, t, curve)` for numbers or `{x, y, z}`. Between
+//! frames, what the description changes is applied to the scene through
+//! the scene-parameter interface ([`LuaAnimation`]); each frame is the
+//! image its scene built alone gives.
+//!
 //! Errors carry the script's name and line (`scene.lua:12: ...`). The
 //! script runs sandboxed: only Lua's `table`, `string`, `math`, `utf8` and
 //! `coroutine` libraries (no `os`, `io`, `package`, `require`, `load`ing
@@ -85,6 +95,16 @@ pub fn load_lua(
 
 /// Runs the script: the scene its `gr.render` call describes.
 pub fn run_lua(path: &Path, options: &LuaOptions) -> Result<LuaScene, SceneError> {
+    run_lua_at(path, options, None)
+}
+
+/// [`run_lua`] at frame `frame` of an animation at `fps` frames per
+/// second: the script sees `frame` and `time` (seconds, `frame / fps`).
+pub fn run_lua_at(
+    path: &Path,
+    options: &LuaOptions,
+    at: Option<(i64, f64)>,
+) -> Result<LuaScene, SceneError> {
     let file = Arc::new(path.to_path_buf());
     let whole = Location::new(file.clone(), 0);
     let source =
@@ -104,6 +124,13 @@ pub fn run_lua(path: &Path, options: &LuaOptions) -> Result<LuaScene, SceneError
     });
     let lua = sandbox().map_err(|e| lua_error(&file, e))?;
     install_gr(&lua, &ctx).map_err(|e| lua_error(&file, e))?;
+    install_ease(&lua).map_err(|e| lua_error(&file, e))?;
+    let (frame, time) = at.map_or((0, 0.0), |(f, fps)| (f, f as f64 / fps));
+    let globals = lua.globals();
+    globals
+        .set("frame", frame)
+        .map_err(|e| lua_error(&file, e))?;
+    globals.set("time", time).map_err(|e| lua_error(&file, e))?;
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -471,8 +498,14 @@ fn install_gr(lua: &Lua, ctx: &Rc<Ctx>) -> mlua::Result<()> {
             let mut principled = c.object(Category::Bsdf, "principled", vec![]);
             let mut normal = None;
             let mut emission = None;
-            for pair in t.pairs::<String, LuaValue>() {
-                let (key, v) = pair?;
+            // In name order: Lua's own order changes from run to run, and
+            // an animation compares the description of one frame with the
+            // next.
+            let mut entries = t
+                .pairs::<String, LuaValue>()
+                .collect::<mlua::Result<Vec<_>>>()?;
+            entries.sort_by(|a, b| a.0.cmp(&b.0));
+            for (key, v) in entries {
                 let name = match key.as_str() {
                     "albedo" | "base_color" => "base_color",
                     "roughness" | "metallic" | "specular" => key.as_str(),
@@ -824,4 +857,244 @@ fn shapes(
         shapes(ctx, child, m, material, out, search_paths)?;
     }
     Ok(())
+}
+
+/// The easing curves animations shape their motion with: functions of
+/// t ∈ [0, 1] (clamped) from 0 to 1.
+fn install_ease(lua: &Lua) -> mlua::Result<()> {
+    let ease = lua.create_table()?;
+    let curves: [(&str, fn(f64) -> f64); 8] = [
+        ("linear", |t| t),
+        ("in_quad", |t| t * t),
+        ("out_quad", |t| t * (2.0 - t)),
+        ("in_out_quad", |t| {
+            if t < 0.5 {
+                2.0 * t * t
+            } else {
+                1.0 - 2.0 * (1.0 - t) * (1.0 - t)
+            }
+        }),
+        ("in_cubic", |t| t * t * t),
+        ("out_cubic", |t| 1.0 - (1.0 - t).powi(3)),
+        ("in_out_cubic", |t| {
+            if t < 0.5 {
+                4.0 * t * t * t
+            } else {
+                1.0 - 4.0 * (1.0 - t).powi(3)
+            }
+        }),
+        // Seed 000's: half a cosine period, slow at both ends.
+        ("cosine", |t| 0.5 - 0.5 * (std::f64::consts::PI * t).cos()),
+    ];
+    for (name, f) in curves {
+        ease.set(
+            name,
+            lua.create_function(move |_, t: f64| Ok(f(t.clamp(0.0, 1.0))))?,
+        )?;
+    }
+    // ease.between(a, b, t, curve): a + (b − a) · curve(t), for numbers or
+    // {x, y, z} tables.
+    ease.set(
+        "between",
+        lua.create_function(
+            |lua, (a, b, t, curve): (LuaValue, LuaValue, f64, Option<mlua::Function>)| {
+                let w = match curve {
+                    Some(f) => f.call::<f64>(t)?,
+                    None => t.clamp(0.0, 1.0),
+                };
+                match (&a, &b) {
+                    (LuaValue::Table(_), _) | (_, LuaValue::Table(_)) => {
+                        let (a, b) = (
+                            triple(lua, "ease.between", &a)?,
+                            triple(lua, "ease.between", &b)?,
+                        );
+                        let out = lua.create_table()?;
+                        for k in 0..3 {
+                            out.set(k + 1, a[k] + (b[k] - a[k]) * w)?;
+                        }
+                        Ok(LuaValue::Table(out))
+                    }
+                    _ => {
+                        let (a, b) = (
+                            triple(lua, "ease.between", &a)?[0],
+                            triple(lua, "ease.between", &b)?[0],
+                        );
+                        Ok(LuaValue::Number(a + (b - a) * w))
+                    }
+                }
+            },
+        )?,
+    )?;
+    lua.globals().set("ease", ease)
+}
+
+/// A Lua scene rendered frame after frame: the script runs again for each
+/// frame, and what its description changes is applied to the scene built
+/// for the first frame through the scene-parameter interface
+/// (`Scene::update`), not by building it again. Where a frame changes the
+/// description's structure (an object added or removed) or a value that
+/// is not an editable parameter, that frame's scene is built afresh.
+pub struct LuaAnimation {
+    path: PathBuf,
+    options: LuaOptions,
+    fps: f64,
+    current: Option<(SceneDesc, crate::LoadedScene)>,
+    /// Frames whose scene was built afresh (the first included).
+    pub rebuilds: u32,
+    /// Parameters updated in place, over all frames.
+    pub updates: u32,
+}
+
+impl std::fmt::Debug for LuaAnimation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LuaAnimation")
+            .field("path", &self.path)
+            .field("fps", &self.fps)
+            .field("rebuilds", &self.rebuilds)
+            .field("updates", &self.updates)
+            .finish()
+    }
+}
+
+impl LuaAnimation {
+    /// The animation of the script at `path`, at `fps` frames per second.
+    pub fn new(path: &Path, options: LuaOptions, fps: f64) -> Self {
+        Self {
+            path: path.to_path_buf(),
+            options,
+            fps,
+            current: None,
+            rebuilds: 0,
+            updates: 0,
+        }
+    }
+
+    /// The scene at frame `frame`, and the output its `gr.render` names.
+    pub fn frame(
+        &mut self,
+        frame: i64,
+    ) -> Result<(&crate::LoadedScene, Option<PathBuf>), SceneError> {
+        let next = run_lua_at(&self.path, &self.options, Some((frame, self.fps)))?;
+        let updated = match &mut self.current {
+            Some((desc, loaded)) => {
+                let changes = changes(desc, &next.desc, loaded);
+                let applied = changes.and_then(|list| {
+                    let n = list.len() as u32;
+                    list.into_iter()
+                        .try_for_each(|(key, value)| loaded.scene.update(&key, value).map(drop))
+                        .ok()
+                        .map(|()| n)
+                });
+                applied.inspect(|n| self.updates += n).is_some()
+            }
+            None => false,
+        };
+        if !updated {
+            let loaded = crate::build::build_scene(&next.desc)?;
+            self.current = Some((next.desc, loaded));
+            self.rebuilds += 1;
+        }
+        let loaded = &self
+            .current
+            .as_ref()
+            .expect("a scene was built or updated")
+            .1;
+        Ok((loaded, next.output))
+    }
+}
+
+/// The parameter updates that turn the scene built from `built` into the
+/// one `next` describes: `None` where they cannot (another structure, a
+/// changed value that is not an editable parameter).
+fn changes(
+    built: &SceneDesc,
+    next: &SceneDesc,
+    loaded: &crate::LoadedScene,
+) -> Option<Vec<(String, yubin_core::params::ParamValue)>> {
+    let params: std::collections::HashMap<String, yubin_core::params::Parameter> = loaded
+        .scene
+        .parameters()
+        .into_iter()
+        .map(|p| (p.key.clone(), p))
+        .collect();
+    let mut out = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    diff(
+        &built.root,
+        &next.root,
+        loaded,
+        &params,
+        &mut out,
+        &mut seen,
+    )
+    .then_some(out)
+}
+
+/// Walks two descriptions of the same shape side by side, collecting the
+/// updates of the values that differ; false where the shapes differ or a
+/// value cannot be updated.
+fn diff(
+    a: &Rc<Object>,
+    b: &Rc<Object>,
+    loaded: &crate::LoadedScene,
+    params: &std::collections::HashMap<String, yubin_core::params::Parameter>,
+    out: &mut Vec<(String, yubin_core::params::ParamValue)>,
+    seen: &mut std::collections::HashSet<usize>,
+) -> bool {
+    if a.category != b.category
+        || a.plugin_type != b.plugin_type
+        || a.props.len() != b.props.len()
+        || a.children.len() != b.children.len()
+    {
+        return false;
+    }
+    // A shared object (a material on several shapes) is compared once.
+    if !seen.insert(Rc::as_ptr(a) as usize) {
+        return true;
+    }
+    for (pa, pb) in a.props.iter().zip(&b.props) {
+        if pa.name != pb.name {
+            return false;
+        }
+        if pa.value == pb.value {
+            continue;
+        }
+        let Some(key) = loaded.object_keys.get(&(Rc::as_ptr(a) as usize)) else {
+            return false;
+        };
+        let found = [
+            format!("{key}.{}", pa.name),
+            format!("{key}.{}.value", pa.name),
+        ]
+        .into_iter()
+        .find_map(|k| params.get(&k).map(|p| (k, p)));
+        let Some((k, p)) = found else { return false };
+        let Some(v) = param_value(&pb.value, &p.kind) else {
+            return false;
+        };
+        out.push((k, v));
+    }
+    a.children.iter().zip(&b.children).all(|(ca, cb)| {
+        ca.name == cb.name && diff(&ca.object, &cb.object, loaded, params, out, seen)
+    })
+}
+
+/// A described value as the parameter of `kind` takes it.
+fn param_value(
+    v: &Value,
+    kind: &yubin_core::params::ParamKind,
+) -> Option<yubin_core::params::ParamValue> {
+    use yubin_core::params::{ParamKind as K, ParamValue as P};
+    Some(match (v, kind) {
+        (Value::Float(f), K::Float) => P::Float(*f as f32),
+        (Value::Integer(i), K::Float) => P::Float(*i as f32),
+        (Value::Integer(i), K::Integer) => P::Integer(*i),
+        (Value::Boolean(b), K::Boolean) => P::Boolean(*b),
+        (Value::String(s), K::String) => P::String(s.clone()),
+        (Value::Point(p) | Value::Vector(p), K::Point | K::Vector) => P::Vector(*p),
+        (Value::Transform(m), K::Transform) => P::Transform(*m),
+        (Value::Rgb(c), K::Color(_)) => P::Color(yubin_core::Rgb::from(*c)),
+        (Value::Float(f), K::Color(_)) => P::Color(yubin_core::Rgb::splat(*f as f32)),
+        _ => return None,
+    })
 }

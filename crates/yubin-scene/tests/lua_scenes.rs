@@ -134,3 +134,28 @@ fn the_sandbox_refuses_programs_writes_and_reads_outside() {
         "{outside}"
     );
 }
+
+/// The example animation: frames after the first update the scene in
+/// place (no rebuild), and each frame renders as the same frame's scene
+/// built alone.
+#[test]
+fn an_animation_updates_in_place_and_each_frame_stands_alone() {
+    use yubin_scene::lua::{run_lua_at, LuaAnimation};
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/animation/bounce.lua");
+    let mut animation = LuaAnimation::new(&script, LuaOptions::default(), 24.0);
+    let mut last = Vec::new();
+    for frame in 1..=4 {
+        let (loaded, _) = animation.frame(frame).expect("the frame runs");
+        let sequence = image(loaded);
+        let alone = run_lua_at(&script, &LuaOptions::default(), Some((frame, 24.0))).unwrap();
+        let alone = yubin_scene::build::build_scene(&alone.desc).unwrap();
+        assert!(
+            sequence == image(&alone),
+            "frame {frame} differs from its scene built alone"
+        );
+        assert!(sequence != last, "frame {frame} is the frame before it");
+        last = sequence;
+    }
+    assert_eq!(animation.rebuilds, 1, "frames after the first were rebuilt");
+    assert!(animation.updates >= 3 * 3, "{} updates", animation.updates);
+}

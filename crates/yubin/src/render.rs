@@ -18,6 +18,8 @@ use yubin_core::render::{render, Adaptive, Progressive, RenderOutput, RenderSett
 use yubin_scene::tonemap::View;
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
 
+mod animate;
+
 /// The built-in demo scene.
 const CORNELL_BOX: &str = include_str!("../../../scenes/cornell-box.xml");
 
@@ -45,6 +47,19 @@ pub struct RenderArgs {
     /// Lua scenes: let the script read files outside its own directory.
     #[arg(long)]
     allow_read: bool,
+    /// Lua scenes: render the frames A-B (or one frame N) of the script's
+    /// animation; `#` in the output (`out/frame_####.png`) is the frame
+    /// number, zero-padded to their count.
+    #[arg(long, value_name = "A-B", value_parser = parse_frames)]
+    frames: Option<(i64, i64)>,
+    /// Frames per second of the animation: the script's `time` is
+    /// `frame / fps`.
+    #[arg(long, default_value_t = 24.0)]
+    fps: f64,
+    /// With --frames: stitch the frames into this video with the system's
+    /// ffmpeg (H.264 MP4).
+    #[arg(long, value_name = "VIDEO")]
+    video: Option<PathBuf>,
     /// glTF scenes: image width in pixels (default 1024).
     #[arg(long)]
     width: Option<u32>,
@@ -172,6 +187,24 @@ fn parse_crop(s: &str) -> Result<[u32; 4], String> {
         .map_err(|_| format!("expected X,Y,W,H (four whole numbers), got \"{s}\""))
 }
 
+fn parse_frames(s: &str) -> Result<(i64, i64), String> {
+    let bad = || format!("frames are A-B or N (1-120, 7), not \"{s}\"");
+    let (a, b) = match s.split_once('-') {
+        Some((a, b)) => (
+            a.trim().parse().map_err(|_| bad())?,
+            b.trim().parse().map_err(|_| bad())?,
+        ),
+        None => {
+            let n = s.trim().parse().map_err(|_| bad())?;
+            (n, n)
+        }
+    };
+    if a > b || a < 0 {
+        return Err(bad());
+    }
+    Ok((a, b))
+}
+
 fn parse_define(s: &str) -> Result<(String, String), String> {
     match s.split_once('=') {
         Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.to_string())),
@@ -181,6 +214,9 @@ fn parse_define(s: &str) -> Result<(String, String), String> {
 
 /// Loads, renders and writes.
 pub fn run(args: RenderArgs) -> Result<()> {
+    if args.frames.is_some() || args.video.is_some() {
+        return animate::run(&args);
+    }
     let t0 = Instant::now();
     let (loaded, output) = load(&args)?;
     check_output_format(&output)?;
@@ -218,6 +254,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
         let inner = std::mem::replace(&mut loaded.integrator, Box::new(PathIntegrator::default()));
         loaded.integrator = Box::new(DenoiserGuides::new(inner, guides));
     }
+    render_scene(&args, &loaded, &output, load_time, None)
+}
+
+/// Renders `loaded` and writes it to `output`, with a summary line; for a
+/// frame of an animation, `frame` is (its number, its place, the count).
+fn render_scene(
+    args: &RenderArgs,
+    loaded: &LoadedScene,
+    output: &Path,
+    load_time: Duration,
+    frame: Option<(i64, usize, usize)>,
+) -> Result<()> {
     let passes = args.time_limit.is_some()
         || args.progressive.is_some()
         || args.adaptive.is_some()
@@ -260,9 +308,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let pixels = u64::from(film.crop_size[0]) * u64::from(film.crop_size[1]);
     let t1 = Instant::now();
     let (out, total_samples, passes_done) = if passes {
-        render_in_passes(&pool, &loaded, &settings, &args, &output, &display)?
+        render_in_passes(&pool, loaded, &settings, args, output, &display)?
     } else {
         let bar = progress_bar(pixels * u64::from(spp), args.quiet);
+        if let Some((number, place, count)) = frame {
+            bar.set_message(format!("frame {number} ({}/{count})  ", place + 1));
+        }
         let done = AtomicU64::new(0);
         let out = pool.install(|| {
             render(&loaded.scene, loaded.integrator.as_ref(), &settings, &|n| {
@@ -284,10 +335,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.denoise {
         denoise::denoise(&mut out)?;
     }
-    write_output(&output, &out, &display)
+    write_output(output, &out, &display)
         .with_context(|| format!("cannot write {}", output.display()))?;
     if !args.quiet {
-        if let (View::Ocio(p), false) = (&display.view, output_is_exr(&output)) {
+        if let (View::Ocio(p), false) = (&display.view, output_is_exr(output)) {
             eprintln!("{}: shown through OCIO {}", output.display(), p.description);
         }
         let passes = if passes {
@@ -613,7 +664,7 @@ fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
     }
     let bar = ProgressBar::new(total);
     let style = ProgressStyle::with_template(
-        "{bar:40} {percent:>3}%  {per_sec:>14}  elapsed {elapsed_precise}  ETA {eta_precise}",
+        "{msg}{bar:40} {percent:>3}%  {per_sec:>14}  elapsed {elapsed_precise}  ETA {eta_precise}",
     )
     .unwrap_or_else(|_| ProgressStyle::default_bar());
     bar.set_style(style.progress_chars("=> "));
