@@ -45,10 +45,12 @@
 //!   textures are for rasterizers (light the renderer computes itself)
 //!   and are ignored. A primitive without material gets glTF's default
 //!   (white, metallic 1, roughness 1).
-//! - **Lights** (`KHR_lights_punctual`): `point` (intensity in candela
-//!   taken as radiant intensity, W/sr), `spot` (its outer and inner cone
-//!   angles as `cutoff_angle` and `beam_width`), `directional` (lux taken
-//!   as irradiance). `range` is ignored (physical falloff only).
+//! - **Lights** (`KHR_lights_punctual`): `point` (candela become radiant
+//!   intensity, W/sr, at 683 lm/W, the conversion Blender's exporter
+//!   applies to its watts, so a Blender light keeps its power), `spot`
+//!   (the same, with its outer and inner cone angles as `cutoff_angle`
+//!   and `beam_width`), `directional` (lux become irradiance, W/m², at
+//!   683 lm/W). `range` is ignored (physical falloff only).
 //! - **Cameras** (only for a `.gltf`/`.glb` rendered on its own): the
 //!   first camera the scene's nodes use, perspective (`yfov`) or
 //!   orthographic (`xmag`, `ymag`); glTF cameras look along −z with +y up,
@@ -970,7 +972,7 @@ impl Importer<'_, '_> {
         light: &gltf::khr_lights_punctual::Light,
         m: DMat4,
     ) -> Result<(), SceneError> {
-        let intensity = Rgb::from(light.color()) * light.intensity();
+        let intensity = Rgb::from(light.color()) * (light.intensity() / LUMENS_PER_WATT);
         let position = m.transform_point3(DVec3::ZERO).as_vec3();
         let emitter = match light.kind() {
             LightKind::Point => Emitter::Point(PointLight {
@@ -1006,6 +1008,12 @@ impl Importer<'_, '_> {
         Ok(())
     }
 }
+
+/// glTF's lights are photometric (candela, lux); yubin's radiometric.
+/// The conversion at the luminous efficacy of 555 nm light is the one
+/// Blender's exporter applies to its watts, so a Blender light keeps the
+/// power it had in Blender.
+const LUMENS_PER_WATT: f32 = 683.0;
 
 /// Factors as bits, for hashing a decoding.
 fn bits(f: [f32; 3]) -> [u32; 3] {

@@ -42,7 +42,7 @@ fn write_gltf(dir: &Path) -> PathBuf {
   "asset": {{"version": "2.0"}},
   "extensionsUsed": ["KHR_lights_punctual"],
   "extensions": {{"KHR_lights_punctual": {{"lights": [
-    {{"type": "point", "color": [1, 0.9, 0.8], "intensity": 30}}]}}}},
+    {{"type": "point", "color": [1, 0.9, 0.8], "intensity": 20000}}]}}}},
   "scene": 0,
   "scenes": [{{"nodes": [0, 1, 2]}}],
   "nodes": [
@@ -83,7 +83,8 @@ fn write_xml(dir: &Path) -> String {
     std::fs::write(dir.join("scene.obj"), obj).unwrap();
     let fov = f64::from(0.6f32).to_degrees();
     let near = f64::from(0.01f32);
-    let intensity = |c: f32| c * 30.0;
+    // Candela become W/sr at 683 lm/W.
+    let intensity = |c: f32| c * (20000.0f32 / 683.0);
     format!(
         r#"<scene version="3.0.0">
     <integrator type="path"/>
