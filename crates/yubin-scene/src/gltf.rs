@@ -699,7 +699,7 @@ impl Importer<'_, '_> {
             Some(i) => i.into_u32().collect(),
             None => (0..positions.len() as u32).collect(),
         };
-        if flat.len() % 3 != 0 {
+        if !flat.len().is_multiple_of(3) {
             return Err(self.error(format!(
                 "{at}: {} indices do not make whole triangles",
                 flat.len()
@@ -1028,16 +1028,46 @@ fn transform(m: DMat4) -> Option<Transform> {
 /// `KHR_texture_transform` as the bitmap's uv transform (the same uv
 /// convention: no change of axes).
 fn uv_transform(t: Option<&gltf::texture::TextureTransform>) -> Affine2 {
-    let Some(t) = t else {
-        return Affine2::IDENTITY;
-    };
-    let [ox, oy] = t.offset();
-    let [sx, sy] = t.scale();
-    let (s, c) = t.rotation().sin_cos();
-    // The extension's matrix: translation · rotation · scale.
+    t.map_or(Affine2::IDENTITY, |t| {
+        uv_transform_of(t.offset(), t.rotation(), t.scale())
+    })
+}
+
+/// The extension's matrix: translation · rotation · scale.
+fn uv_transform_of([ox, oy]: [f32; 2], rotation: f32, [sx, sy]: [f32; 2]) -> Affine2 {
+    let (s, c) = rotation.sin_cos();
     Affine2::from_mat3(Mat3::from_cols(
         Vec3::new(c * sx, s * sx, 0.0),
         Vec3::new(-s * sy, c * sy, 0.0),
         Vec3::new(ox, oy, 1.0),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `KHR_texture_transform`: offset, then the spec's rotation (which
+    /// takes u towards +v) and scale, as its sample model checks them.
+    #[test]
+    fn texture_transforms_follow_the_extension() {
+        let close = |a: Vec2, b: Vec2| (a - b).length() < 1e-6;
+        let offset = uv_transform_of([0.5, 0.25], 0.0, [1.0, 1.0]);
+        assert!(close(
+            offset.transform_point2(Vec2::ZERO),
+            Vec2::new(0.5, 0.25)
+        ));
+        let turned = uv_transform_of([0.0, 0.0], std::f32::consts::FRAC_PI_2, [1.0, 1.0]);
+        assert!(
+            close(turned.transform_point2(Vec2::X), Vec2::Y),
+            "{}",
+            turned.transform_point2(Vec2::X)
+        );
+        let scaled = uv_transform_of([1.0, 0.0], 0.0, [2.0, 3.0]);
+        assert!(close(
+            scaled.transform_point2(Vec2::ONE),
+            Vec2::new(3.0, 3.0)
+        ));
+        assert_eq!(uv_transform(None), Affine2::IDENTITY);
+    }
 }

@@ -859,11 +859,14 @@ fn shapes(
     Ok(())
 }
 
+/// An easing curve.
+type Curve = fn(f64) -> f64;
+
 /// The easing curves animations shape their motion with: functions of
 /// t ∈ [0, 1] (clamped) from 0 to 1.
 fn install_ease(lua: &Lua) -> mlua::Result<()> {
     let ease = lua.create_table()?;
-    let curves: [(&str, fn(f64) -> f64); 8] = [
+    let curves: [(&str, Curve); 8] = [
         ("linear", |t| t),
         ("in_quad", |t| t * t),
         ("out_quad", |t| t * (2.0 - t)),

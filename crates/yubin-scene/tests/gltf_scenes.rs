@@ -34,9 +34,26 @@ const INDICES: [u16; 12] = [0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7];
 /// The glTF of the quad and floor (a red rough dielectric), a camera at
 /// z = 5 and a point light, its buffer in `scene.bin`.
 fn write_gltf(dir: &Path) -> PathBuf {
+    let nodes = format!(r#"{{"mesh": 0}}, {CAMERA_NODE}, {LIGHT_NODE}"#);
+    let camera = r#"{"type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.01, "aspectRatio": 1.5}}"#;
+    let material = r#"{"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.3, 0.2, 1], "metallicFactor": 0, "roughnessFactor": 0.5}}"#;
+    write_gltf_with(dir, "scene.gltf", &nodes, 3, material, camera)
+}
+
+/// The quad and floor's buffer and a glTF using it: `nodes` (JSON, the
+/// first `roots` of them the scene's), one `material` and one `camera`.
+fn write_gltf_with(
+    dir: &Path,
+    name: &str,
+    nodes: &str,
+    roots: usize,
+    material: &str,
+    camera: &str,
+) -> PathBuf {
     let mut bin = bytes_f32(&POSITIONS);
     bin.extend(bytes_u16(&INDICES));
     std::fs::write(dir.join("scene.bin"), &bin).unwrap();
+    let roots: Vec<String> = (0..roots).map(|i| i.to_string()).collect();
     let json = format!(
         r#"{{
   "asset": {{"version": "2.0"}},
@@ -44,15 +61,11 @@ fn write_gltf(dir: &Path) -> PathBuf {
   "extensions": {{"KHR_lights_punctual": {{"lights": [
     {{"type": "point", "color": [1, 0.9, 0.8], "intensity": 20000}}]}}}},
   "scene": 0,
-  "scenes": [{{"nodes": [0, 1, 2]}}],
-  "nodes": [
-    {{"mesh": 0}},
-    {{"camera": 0, "translation": [0, 0, 5]}},
-    {{"translation": [1, 3, 3], "extensions": {{"KHR_lights_punctual": {{"light": 0}}}}}}
-  ],
-  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.6, "znear": 0.01, "aspectRatio": 1.5}}}}],
+  "scenes": [{{"nodes": [{}]}}],
+  "nodes": [{nodes}],
+  "cameras": [{camera}],
   "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0}}]}}],
-  "materials": [{{"pbrMetallicRoughness": {{"baseColorFactor": [0.8, 0.3, 0.2, 1], "metallicFactor": 0, "roughnessFactor": 0.5}}}}],
+  "materials": [{material}],
   "accessors": [
     {{"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3", "min": [-4, -1, -4], "max": [4, 1, 4]}},
     {{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}}
@@ -63,9 +76,10 @@ fn write_gltf(dir: &Path) -> PathBuf {
   ],
   "buffers": [{{"uri": "scene.bin", "byteLength": {}}}]
 }}"#,
+        roots.join(", "),
         bin.len()
     );
-    let path = dir.join("scene.gltf");
+    let path = dir.join(name);
     std::fs::write(&path, json).unwrap();
     path
 }
@@ -269,4 +283,64 @@ fn texture_coordinate_test_comes_out_the_right_way_up_shared() {
         top_left < 0.7 * bottom_left && top_left < 0.7 * top_right,
         "marks at top left {top_left}, bottom left {bottom_left}, top right {top_right}"
     );
+}
+
+fn write_variant(dir: &Path, nodes: &str, roots: usize, material: &str, camera: &str) -> PathBuf {
+    write_gltf_with(dir, "variant.gltf", nodes, roots, material, camera)
+}
+
+const CAMERA_NODE: &str = r#"{"camera": 0, "translation": [0, 0, 5]}"#;
+const LIGHT_NODE: &str =
+    r#"{"translation": [1, 3, 3], "extensions": {"KHR_lights_punctual": {"light": 0}}}"#;
+const PERSPECTIVE: &str = r#"{"type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.01}}"#;
+const RED: &str = r#"{"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.3, 0.2, 1]}}"#;
+
+/// A mesh three nodes use is built once and placed by instances.
+#[test]
+fn a_mesh_used_by_several_nodes_is_instanced() {
+    let dir = scratch("instances");
+    let nodes = format!(
+        r#"{{"mesh": 0, "translation": [-2, 0, -3]}}, {{"mesh": 0}}, {{"mesh": 0, "translation": [2, 0, -3]}}, {CAMERA_NODE}, {LIGHT_NODE}"#
+    );
+    let path = write_variant(&dir, &nodes, 5, RED, PERSPECTIVE);
+    let s = load_gltf(&path, &options()).expect("the instanced model loads");
+    assert_eq!(s.scene.meshes.len(), 1, "the shared mesh was copied");
+    assert!(image(&s).iter().any(|&v| v > 0.0));
+}
+
+/// Orthographic cameras, alpha modes and double-sided materials map onto
+/// `orthographic`, `mask` and `twosided`.
+#[test]
+fn orthographic_cameras_alpha_modes_and_double_sided_materials_map() {
+    use yubin_core::bsdf::Material;
+    use yubin_core::texture::Tex;
+    let dir = scratch("modes");
+    let nodes = format!(r#"{{"mesh": 0}}, {CAMERA_NODE}, {LIGHT_NODE}"#);
+    let ortho = r#"{"type": "orthographic", "orthographic": {"xmag": 2, "ymag": 1.5, "znear": 0.01, "zfar": 100}}"#;
+    let masked = r#"{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.3]}, "alphaMode": "MASK", "alphaCutoff": 0.5, "doubleSided": true}"#;
+    let s = load_gltf(&write_variant(&dir, &nodes, 3, masked, ortho), &options()).unwrap();
+    assert!(matches!(
+        s.scene.camera,
+        yubin_core::camera::Camera::Orthographic(_)
+    ));
+    // xmag : ymag is the image's aspect ratio.
+    assert_eq!((s.scene.film.width, s.scene.film.height), (48, 36));
+    let bsdfs = &s.scene.materials.bsdfs;
+    // Alpha 0.3 under the cutoff 0.5: fully transparent.
+    assert!(bsdfs
+        .iter()
+        .any(|b| matches!(b, Material::Mask(m) if m.opacity == Tex::value(0.0))));
+    assert!(bsdfs.iter().any(|b| matches!(b, Material::TwoSided(_))));
+    let blended =
+        r#"{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.3]}, "alphaMode": "BLEND"}"#;
+    let s = load_gltf(
+        &write_variant(&dir, &nodes, 3, blended, PERSPECTIVE),
+        &options(),
+    )
+    .unwrap();
+    let bsdfs = &s.scene.materials.bsdfs;
+    assert!(bsdfs
+        .iter()
+        .any(|b| matches!(b, Material::Mask(m) if m.opacity == Tex::value(0.3))));
+    assert!(!bsdfs.iter().any(|b| matches!(b, Material::TwoSided(_))));
 }

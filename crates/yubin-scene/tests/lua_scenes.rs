@@ -159,3 +159,37 @@ fn an_animation_updates_in_place_and_each_frame_stands_alone() {
     assert_eq!(animation.rebuilds, 1, "frames after the first were rebuilt");
     assert!(animation.updates >= 3 * 3, "{} updates", animation.updates);
 }
+
+/// `gr.load` brings a Mitsuba XML scene's shapes and emitters, whose
+/// relative files are found beside that XML.
+#[test]
+fn gr_load_brings_an_xml_scenes_shapes() {
+    let dir = scratch("load");
+    std::fs::create_dir_all(dir.join("parts")).unwrap();
+    std::fs::write(
+        dir.join("parts/tri.obj"),
+        "v -1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("parts/part.xml"),
+        r#"<scene version="3.0.0">
+            <shape type="obj"><string name="filename" value="tri.obj"/>
+                <emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>
+        </scene>"#,
+    )
+    .unwrap();
+    let script = dir.join("scene.lua");
+    std::fs::write(
+        &script,
+        "root = gr.node('root')\nroot:add_child(gr.load('parts/part.xml'))\n\
+         gr.render{scene = root, width = 16, height = 16, eye = {0, 0.3, 3}, target = {0, 0.3, 0}}\n",
+    )
+    .unwrap();
+    let (s, _) = load_lua(&script, &LuaOptions::default()).expect("the script loads the part");
+    assert_eq!(s.scene.meshes.len(), 1);
+    assert!(
+        image(&s).iter().any(|&v| v > 0.0),
+        "the loaded light is not seen"
+    );
+}

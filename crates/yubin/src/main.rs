@@ -28,7 +28,7 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Render a scene (the built-in Cornell box when no scene is given).
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// Compare an image with a reference: relMSE, RMSE and mean-luminance bias.
     Compare(compare::CompareArgs),
     /// Show a scene-linear image through an exposure and a tone curve or
@@ -39,7 +39,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(args) => render::run(args),
+        Command::Render(args) => render::run(*args),
         Command::Compare(args) => compare::run(args),
         Command::Tonemap(args) => tonemap::run(args),
     };
