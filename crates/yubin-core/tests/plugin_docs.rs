@@ -79,22 +79,27 @@ fn entries(family_dir: &Path, family: &str) -> Vec<Entry> {
     files.sort();
     let mut out = Vec::new();
     for path in files {
-        let src = std::fs::read_to_string(&path).expect("readable source file");
-        let text = header(&src);
-        let name = type_name(&text);
-        if name.is_none() && !text.contains("```xml") {
-            continue;
-        }
         let file_name = path.file_name().expect("file name").to_string_lossy();
-        out.push(Entry {
-            name,
-            source: format!("crates/yubin-core/src/{family}/{file_name}"),
-            file: format!("{family}/{file_name}"),
-            text,
-        });
+        let source = format!("crates/yubin-core/src/{family}/{file_name}");
+        let e = entry(&path, family, source);
+        if e.name.is_some() || e.text.contains("```xml") {
+            out.push(e);
+        }
     }
     out.sort_by(by_name);
     out
+}
+
+/// The documentation entry of the plugin file at `path` of `family`.
+fn entry(path: &Path, family: &str, source: String) -> Entry {
+    let text = header(&std::fs::read_to_string(path).expect("readable source file"));
+    let file_name = path.file_name().expect("file name").to_string_lossy();
+    Entry {
+        name: type_name(&text),
+        source,
+        file: format!("{family}/{file_name}"),
+        text,
+    }
 }
 
 /// Named plugins first, by name; multi-plugin files after, by path.
@@ -124,15 +129,7 @@ fn generate(src: &Path) -> String {
             let mut list = entries(&src.join(dir), dir);
             for &(family, file) in FRONT_END_PLUGINS.iter().filter(|(f, _)| *f == dir) {
                 let path = src.join("../..").join(file);
-                let text = header(&std::fs::read_to_string(&path).expect("readable source file"));
-                let name = type_name(&text);
-                let file_name = file.rsplit('/').next().unwrap_or(file);
-                list.push(Entry {
-                    name,
-                    source: format!("crates/{file}"),
-                    file: format!("{family}/{file_name}"),
-                    text,
-                });
+                list.push(entry(&path, family, format!("crates/{file}")));
             }
             list.sort_by(by_name);
             (dir, tag, list)
