@@ -74,7 +74,8 @@ pub struct LuaOptions {
 pub struct LuaScene {
     /// The scene, as the XML front end would describe it.
     pub desc: SceneDesc,
-    /// `gr.render`'s `output`, relative to the script's directory.
+    /// `gr.render`'s `output` (relative to the current directory, as
+    /// `-o` is).
     pub output: Option<PathBuf>,
 }
 
@@ -142,7 +143,7 @@ pub fn run_lua_at(
     let render = ctx.render.borrow_mut().take();
     let render =
         render.ok_or_else(|| SceneError::at(&whole, "the script never calls gr.render"))?;
-    let output = render.output.clone().map(|o| dir.join(o));
+    let output = render.output.clone().map(PathBuf::from);
     Ok(LuaScene {
         desc: scene_desc(&ctx, render, path)?,
         output,
@@ -758,14 +759,13 @@ fn scene_desc(ctx: &Ctx, r: Render, path: &Path) -> Result<SceneDesc, SceneError
         )));
     }
     let mut search_paths = vec![ctx.dir.clone()];
-    shapes(
-        ctx,
-        &r.scene,
-        DMat4::IDENTITY,
-        None,
-        &mut top,
-        &mut search_paths,
-    )?;
+    let mut inside = Vec::new();
+    let mut walk = Walk {
+        out: &mut top,
+        search_paths: &mut search_paths,
+        path: &mut inside,
+    };
+    shapes(ctx, &r.scene, DMat4::IDENTITY, None, &mut walk)?;
     let mut root = ctx.object(Category::Scene, "scene", vec![]);
     root.children = top.into_iter().map(|o| ctx.child(None, o)).collect();
     Ok(SceneDesc {
@@ -784,8 +784,34 @@ fn shapes(
     node: &Node,
     parent: DMat4,
     inherited: Option<&Mat>,
-    out: &mut Vec<Rc<Object>>,
-    search_paths: &mut Vec<PathBuf>,
+    walk: &mut Walk,
+) -> Result<(), SceneError> {
+    let here = Rc::as_ptr(&node.0) as usize;
+    if walk.path.contains(&here) {
+        return Err(SceneError::at(
+            &ctx.loc,
+            "a node is its own ancestor (add_child made a cycle)",
+        ));
+    }
+    walk.path.push(here);
+    let done = node_shapes(ctx, node, parent, inherited, walk);
+    walk.path.pop();
+    done
+}
+
+/// Where [`shapes`] puts what it finds, and the nodes it is inside.
+struct Walk<'a> {
+    out: &'a mut Vec<Rc<Object>>,
+    search_paths: &'a mut Vec<PathBuf>,
+    path: &'a mut Vec<usize>,
+}
+
+fn node_shapes(
+    ctx: &Ctx,
+    node: &Node,
+    parent: DMat4,
+    inherited: Option<&Mat>,
+    walk: &mut Walk,
 ) -> Result<(), SceneError> {
     let d = node.0.borrow();
     let m = parent * d.transform;
@@ -815,9 +841,9 @@ fn shapes(
         |p: &Path| ctx.prop("filename", Value::String(p.to_string_lossy().into_owned()));
     match &d.geometry {
         Geometry::None => {}
-        Geometry::Sphere => out.push(shape("sphere", m, vec![])),
+        Geometry::Sphere => walk.out.push(shape("sphere", m, vec![])),
         // CS488's cube is [0, 1]³; Mitsuba's [−1, 1]³.
-        Geometry::Cube => out.push(shape(
+        Geometry::Cube => walk.out.push(shape(
             "cube",
             m * DMat4::from_translation(DVec3::splat(0.5)) * DMat4::from_scale(DVec3::splat(0.5)),
             vec![],
@@ -827,7 +853,7 @@ fn shapes(
                 Some(e) if e.eq_ignore_ascii_case("ply") => "ply",
                 _ => "obj",
             };
-            out.push(shape(kind, m, vec![path_prop(p)]));
+            walk.out.push(shape(kind, m, vec![path_prop(p)]));
         }
         Geometry::Gltf(p) => {
             let o = ctx.object(
@@ -835,7 +861,7 @@ fn shapes(
                 "gltf",
                 vec![path_prop(p), ctx.prop("to_world", Value::Transform(m))],
             );
-            out.push(Rc::new(o));
+            walk.out.push(Rc::new(o));
         }
         Geometry::Xml(objects, dir) => {
             // Its shapes and emitters, where the XML put them.
@@ -849,12 +875,12 @@ fn shapes(
                     ),
                 ));
             }
-            out.extend(objects.iter().cloned());
-            search_paths.push(dir.clone());
+            walk.out.extend(objects.iter().cloned());
+            walk.search_paths.push(dir.clone());
         }
     }
     for child in &d.children {
-        shapes(ctx, child, m, material, out, search_paths)?;
+        shapes(ctx, child, m, material, walk)?;
     }
     Ok(())
 }

@@ -77,7 +77,7 @@ fn a_script_renders_as_the_same_scene_in_xml() {
     let script = dir.join("scene.lua");
     std::fs::write(&script, SCRIPT).unwrap();
     let (lua, output) = load_lua(&script, &LuaOptions::default()).expect("the script runs");
-    assert_eq!(output, Some(dir.join("out.png")));
+    assert_eq!(output, Some(PathBuf::from("out.png")));
     let xml = load_scene_str(XML, &dir.join("scene.xml"), &[]).expect("the XML loads");
     let (a, b) = (image(&lua), image(&xml));
     assert!(
@@ -109,6 +109,11 @@ fn errors_name_the_script_and_line() {
     );
     let lua_error = error_of("nil", "x = nil\n\nx.y = 3\n");
     assert!(lua_error.contains("scene.lua:3"), "{lua_error}");
+    let cycle = error_of(
+        "cycle",
+        "a = gr.node('a')\nb = gr.node('b')\na:add_child(b)\nb:add_child(a)\ngr.render{scene = a}\n",
+    );
+    assert!(cycle.contains("cycle"), "{cycle}");
     let no_render = error_of("norender", "x = 1\n");
     assert!(no_render.contains("gr.render"), "{no_render}");
 }

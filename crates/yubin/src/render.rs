@@ -626,6 +626,8 @@ fn load(args: &RenderArgs) -> Result<(LoadedScene, PathBuf)> {
                 allow_read_anywhere: args.allow_read,
             };
             let (loaded, named) = yubin_scene::lua::load_lua(path, &options)?;
+            // Outside an animation, an output pattern's `#`s are frame 0.
+            let named = named.map(|n| PathBuf::from(n.to_string_lossy().replace('#', "0")));
             let default_out = named.unwrap_or_else(|| {
                 Path::new(path.file_stem().unwrap_or_default()).with_extension("exr")
             });
