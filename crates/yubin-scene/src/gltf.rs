@@ -413,6 +413,8 @@ fn import(
         }
     }
     check_accessors(&gltf.document, &at)?;
+    check_attributes(&gltf.document, &at)?;
+    check_hierarchy(&gltf.document, &at)?;
     let buffers = gltf::import_buffers(&gltf.document, Some(dir), gltf.blob)
         .map_err(|e| gltf_error(path, e))?;
     let images = gltf::import_images(&gltf.document, Some(dir), &buffers)
@@ -475,6 +477,17 @@ fn check_accessors(doc: &gltf::Document, at: &Location) -> Result<(), SceneError
         }
         let element = a.size() as u64;
         let stride = v.stride().map_or(element, |s| s as u64);
+        if stride < element {
+            return Err(SceneError::at(
+                at,
+                format!(
+                    "/accessors/{}: elements of {element} bytes in buffer view {} with a \
+                     stride of {stride}",
+                    a.index(),
+                    v.index()
+                ),
+            ));
+        }
         let end = a.offset() as u64 + stride * (a.count() as u64 - 1) + element;
         if end > v.length() as u64 {
             return Err(SceneError::at(
@@ -489,6 +502,93 @@ fn check_accessors(doc: &gltf::Document, at: &Location) -> Result<(), SceneError
                     v.length()
                 ),
             ));
+        }
+    }
+    Ok(())
+}
+
+/// Every attribute the renderer reads has the type the spec requires
+/// (the reader would otherwise reinterpret its bytes).
+fn check_attributes(doc: &gltf::Document, at: &Location) -> Result<(), SceneError> {
+    use gltf::accessor::{DataType as T, Dimensions as D};
+    use gltf::Semantic as S;
+    for m in doc.meshes() {
+        for p in m.primitives() {
+            let place = format!("/meshes/{}/primitives/{}", m.index(), p.index());
+            let wrong = |what: &str, must: &str, a: &gltf::Accessor| {
+                SceneError::at(
+                    at,
+                    format!(
+                        "{place}/{what}: accessor {} holds {:?} {:?}; it must be {must}",
+                        a.index(),
+                        a.data_type(),
+                        a.dimensions()
+                    ),
+                )
+            };
+            for (semantic, a) in p.attributes() {
+                let (ty, dims) = (a.data_type(), a.dimensions());
+                let small = matches!(ty, T::F32 | T::U8 | T::U16);
+                let (ok, must) = match &semantic {
+                    S::Positions | S::Normals => ((ty, dims) == (T::F32, D::Vec3), "F32 Vec3"),
+                    S::Tangents => ((ty, dims) == (T::F32, D::Vec4), "F32 Vec4"),
+                    S::TexCoords(_) => (dims == D::Vec2 && small, "F32, U8 or U16 Vec2"),
+                    S::Colors(_) => (
+                        matches!(dims, D::Vec3 | D::Vec4) && small,
+                        "F32, U8 or U16 Vec3 or Vec4",
+                    ),
+                    _ => (true, ""),
+                };
+                if !ok {
+                    return Err(wrong(
+                        &format!("attributes/{}", semantic.to_string()),
+                        must,
+                        &a,
+                    ));
+                }
+            }
+            if let Some(a) = p.indices() {
+                let ok =
+                    a.dimensions() == D::Scalar && matches!(a.data_type(), T::U8 | T::U16 | T::U32);
+                if !ok {
+                    return Err(wrong("indices", "U8, U16 or U32 Scalar", &a));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Nodes form trees: no node with two parents, no cycle (the spec's rule,
+/// which the `gltf` crate does not check; a cycle would place a mesh
+/// without end).
+fn check_hierarchy(doc: &gltf::Document, at: &Location) -> Result<(), SceneError> {
+    let mut parent: Vec<Option<usize>> = vec![None; doc.nodes().len()];
+    for n in doc.nodes() {
+        for c in n.children() {
+            if let Some(first) = parent[c.index()].replace(n.index()) {
+                return Err(SceneError::at(
+                    at,
+                    format!(
+                        "/nodes/{}: a child of both node {first} and node {} (nodes form trees)",
+                        c.index(),
+                        n.index()
+                    ),
+                ));
+            }
+        }
+    }
+    for start in 0..parent.len() {
+        let (mut node, mut steps) = (start, 0);
+        while let Some(p) = parent[node] {
+            node = p;
+            steps += 1;
+            if steps > parent.len() {
+                return Err(SceneError::at(
+                    at,
+                    format!("/nodes/{start}: its own ancestor (the node hierarchy has a cycle)"),
+                ));
+            }
         }
     }
     Ok(())

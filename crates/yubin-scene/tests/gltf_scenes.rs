@@ -344,3 +344,51 @@ fn orthographic_cameras_alpha_modes_and_double_sided_materials_map() {
         .any(|b| matches!(b, Material::Mask(m) if m.opacity == Tex::value(0.3))));
     assert!(!bsdfs.iter().any(|b| matches!(b, Material::TwoSided(_))));
 }
+
+/// Malformed files the `gltf` crate lets through (or panics on) are
+/// errors naming the file and the JSON pointer: a stride shorter than an
+/// element, attributes of the wrong type, a node hierarchy with a cycle.
+#[test]
+fn malformed_hierarchies_and_attributes_are_errors() {
+    let dir = scratch("malformed");
+    let good = std::fs::read_to_string(write_gltf(&dir)).unwrap();
+    let cases = [
+        (
+            "stride",
+            good.replace(
+                r#""byteOffset": 0, "byteLength": 96}"#,
+                r#""byteOffset": 0, "byteLength": 96, "byteStride": 4}"#,
+            ),
+            "/accessors/0",
+        ),
+        (
+            "position type",
+            good.replace(
+                r#""count": 8, "type": "VEC3""#,
+                r#""count": 8, "type": "VEC2""#,
+            ),
+            "/meshes/0/primitives/0/attributes/POSITION",
+        ),
+        (
+            "cycle",
+            good.replace(
+                r#"{"mesh": 0}, {"camera""#,
+                r#"{"mesh": 0, "children": [1]}, {"children": [0], "camera""#,
+            ),
+            "/nodes/",
+        ),
+    ];
+    for (name, json, pointer) in cases {
+        assert_ne!(json, good, "{name}: the mutation did not apply");
+        let path = dir.join("malformed.gltf");
+        std::fs::write(&path, json).unwrap();
+        let err = match load_gltf(&path, &options()) {
+            Ok(_) => panic!("{name}: a malformed file loaded"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            err.contains("malformed.gltf") && err.contains(pointer),
+            "{name}: {err}"
+        );
+    }
+}
