@@ -34,7 +34,8 @@
 //! | `node:translate(x, y, z)`, `node:rotate(axis, degrees)`, `node:scale(x, y, z)` | transforms applied after the node's earlier ones (`axis` `'x'`, `'y'` or `'z'`) |
 //! | `node:add_child(child)`, `node:set_material(m)` | the hierarchy; a node without material wears its parent's |
 //! | `gr.light(position, colour)` | a point light of that radiant intensity (a third CS488 falloff argument is ignored: the falloff is physical) |
-//! | `gr.render{scene=, output=, width=, height=, spp=, eye=, view= or target=, up=, fov=, lights=, ambient=, env=, max_depth=}` | the render: the camera (vertical `fov` in degrees), lights, a constant `ambient` environment, an `env` map; also CS488's `gr.render(root, output, w, h, eye, view, up, fov, ambient, lights)` |
+//! | `gr.camera{eye=, view= or target=, up=, fov=}` | a camera, for `gr.render{camera = ...}` |
+//! | `gr.render{scene=, output=, width=, height=, spp=, camera= or eye=, view= or target=, up=, fov=, lights=, ambient=, env=, max_depth=}` | the render: the camera (vertical `fov` in degrees), lights, a constant `ambient` environment, an `env` map; also CS488's `gr.render(root, output, w, h, eye, view, up, fov, ambient, lights)` |
 //!
 //! **Animation**: the script runs once per frame with the globals `frame`
 //! (its number) and `time` (seconds, `frame / fps`), and shapes motion
@@ -590,6 +591,21 @@ fn install_gr(lua: &Lua, ctx: &Rc<Ctx>) -> mlua::Result<()> {
         })?,
     )?;
     gr.set(
+        "camera",
+        lua.create_function(|lua, t: Table| {
+            let camera = lua.create_table()?;
+            for key in ["eye", "target", "view", "up"] {
+                let v: LuaValue = t.get(key)?;
+                if !v.is_nil() {
+                    let [x, y, z] = triple(lua, &format!("gr.camera {key}"), &v)?;
+                    camera.set(key, lua.create_sequence_from([x, y, z])?)?;
+                }
+            }
+            camera.set("fov", t.get::<Option<f64>>("fov")?)?;
+            Ok(camera)
+        })?,
+    )?;
+    gr.set(
         "light",
         lua.create_function(|lua, (p, c, _falloff): (LuaValue, LuaValue, LuaValue)| {
             Ok(Light {
@@ -644,6 +660,14 @@ fn render_args(lua: &Lua, ctx: &Ctx, args: mlua::MultiValue) -> mlua::Result<Ren
             v => triple(lua, &format!("gr.render {name}"), &v).map(DVec3::from),
         }
     };
+    // A gr.camera's settings, where the render gives none of its own.
+    if let Some(camera) = named.get::<Option<Table>>("camera")? {
+        for key in ["eye", "target", "view", "up", "fov"] {
+            if named.get::<LuaValue>(key)?.is_nil() {
+                named.set(key, camera.get::<LuaValue>(key)?)?;
+            }
+        }
+    }
     let eye = vec3("eye", [0.0, 0.0, 5.0])?;
     let target = match named.get::<LuaValue>("target")? {
         LuaValue::Nil => eye + vec3("view", [0.0, 0.0, -1.0])?,

@@ -40,8 +40,8 @@ floor:scale(8, 0.25, 8)
 floor:translate(-4, -0.25, -4)
 floor:set_material(grey)
 root:add_child(floor)
-gr.render{scene = root, output = "out.png", width = 64, height = 48, spp = 8,
-  eye = {0, 1, 8}, target = {0, 1, 0}, up = {0, 1, 0}, fov = 40,
+cam = gr.camera{eye = {0, 1, 8}, target = {0, 1, 0}, up = {0, 1, 0}, fov = 40}
+gr.render{scene = root, output = "out.png", width = 64, height = 48, spp = 8, camera = cam,
   lights = {gr.light({4, 6, 4}, {60, 60, 60})}, ambient = {0.125, 0.125, 0.125}}
 "#;
 
