@@ -40,8 +40,8 @@
 //!   light with that radiance, `doubleSided` a `twosided`, alpha `MASK` a
 //!   `mask` of opacity 0 or 1 (alpha against the cutoff, per texel) and
 //!   `BLEND` a `mask` of opacity alpha (stochastic transparency). The
-//!   sampler's filter (nearest or linear) and its S wrap mode are used
-//!   (one wrap mode for both axes, as yubin's `bitmap` has). Occlusion
+//!   sampler's magnification filter (nearest or linear) and its S and T
+//!   wrap modes are used (no mipmaps: yubin's bitmaps have none). Occlusion
 //!   textures are for rasterizers (light the renderer computes itself)
 //!   and are ignored. A primitive without material gets glTF's default
 //!   (white, metallic 1, roughness 1).
@@ -975,11 +975,12 @@ impl Importer<'_, '_> {
             Some(gltf::texture::MagFilter::Nearest) => FilterType::Nearest,
             _ => FilterType::Bilinear,
         };
-        let wrap = match sampler.wrap_s() {
+        let mode = |w| match w {
             gltf::texture::WrappingMode::ClampToEdge => WrapMode::Clamp,
             gltf::texture::WrappingMode::MirroredRepeat => WrapMode::Mirror,
             gltf::texture::WrappingMode::Repeat => WrapMode::Repeat,
         };
+        let wrap = [mode(sampler.wrap_s()), mode(sampler.wrap_t())];
         let raw = !matches!(usage, ImageUse::Color(_));
         let id = self.b.sb.add_texture(Texture::Bitmap(Bitmap {
             image,

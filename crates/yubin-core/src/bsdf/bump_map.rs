@@ -142,7 +142,7 @@ pub(crate) mod tests {
         m.textures.push(Texture::Bitmap(Bitmap {
             image: 0,
             filter: FilterType::Bilinear,
-            wrap: WrapMode::Clamp,
+            wrap: [WrapMode::Clamp; 2],
             raw: true,
             to_uv: glam::Affine2::IDENTITY,
         }));

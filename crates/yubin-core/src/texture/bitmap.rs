@@ -86,8 +86,9 @@ pub struct Bitmap {
     pub image: u32,
     /// Texel lookup.
     pub filter: FilterType,
-    /// Outside [0, 1]².
-    pub wrap: WrapMode,
+    /// Outside [0, 1]², along u and along v (a scene file's `wrap_mode`
+    /// sets both; glTF samplers set them apart).
+    pub wrap: [WrapMode; 2],
     /// Keep 8-bit values as they are (no sRGB decoding).
     pub raw: bool,
     /// Applied to uv before the lookup.
@@ -117,15 +118,16 @@ impl Bitmap {
         Ok(Self {
             image,
             filter,
-            wrap,
+            wrap: [wrap; 2],
             raw,
             to_uv,
         })
     }
 
+    /// Texel `i` of `n` along `axis` (0: u, 1: v), wrapped.
     #[inline]
-    fn wrap_index(&self, i: i64, n: u32) -> u32 {
-        self.wrap.index(i, n)
+    fn wrap_index(&self, axis: usize, i: i64, n: u32) -> u32 {
+        self.wrap[axis].index(i, n)
     }
 
     /// The four texels around `uv` and the bilinear weights, or the texel
@@ -137,8 +139,8 @@ impl Bitmap {
         match self.filter {
             FilterType::Nearest => {
                 let p = crate::math::floor2(uv * size);
-                let x = self.wrap_index(p.x as i64, img.width);
-                let y = self.wrap_index(p.y as i64, img.height);
+                let x = self.wrap_index(0, p.x as i64, img.width);
+                let y = self.wrap_index(1, p.y as i64, img.height);
                 let t = img.texel(x, y, decode);
                 ([t; 4], Vec2::ZERO)
             }
@@ -147,8 +149,8 @@ impl Bitmap {
                 let p0 = crate::math::floor2(p);
                 let f = p - p0;
                 let (x0, y0) = (p0.x as i64, p0.y as i64);
-                let xs = [x0, x0 + 1].map(|x| self.wrap_index(x, img.width));
-                let ys = [y0, y0 + 1].map(|y| self.wrap_index(y, img.height));
+                let xs = [x0, x0 + 1].map(|x| self.wrap_index(0, x, img.width));
+                let ys = [y0, y0 + 1].map(|y| self.wrap_index(1, y, img.height));
                 (
                     [
                         img.texel(xs[0], ys[0], decode),
@@ -260,7 +262,7 @@ mod tests {
         Bitmap {
             image: 0,
             filter,
-            wrap,
+            wrap: [wrap; 2],
             raw: false,
             to_uv: Affine2::IDENTITY,
         }
@@ -287,6 +289,16 @@ mod tests {
         assert_eq!(near(WrapMode::Repeat), 0.0);
         assert_eq!(near(WrapMode::Mirror), 1.0);
         assert_eq!(near(WrapMode::Clamp), 1.0);
+        // Each axis by its own mode: u repeats, v clamps.
+        let m = materials(vec![0.0, 1.0, 2.0, 3.0], 2, 2, 1);
+        let b = Bitmap {
+            wrap: [WrapMode::Repeat, WrapMode::Clamp],
+            ..bitmap(FilterType::Nearest, WrapMode::Repeat)
+        };
+        let texel = |u: f32, v: f32| b.eval_1(&m, &at(Vec2::new(u, v)));
+        assert_eq!(texel(1.25, 0.25), texel(0.25, 0.25));
+        assert_eq!(texel(0.25, 1.25), texel(0.25, 0.75));
+        assert_ne!(texel(0.25, 1.25), texel(0.25, 0.25));
     }
 
     #[test]
