@@ -392,3 +392,56 @@ fn malformed_hierarchies_and_attributes_are_errors() {
         );
     }
 }
+
+/// `COLOR_0` times the base colour factor colours the surface (as the
+/// `vertex_color` attribute the base colour reads).
+#[test]
+fn vertex_colours_tint_the_base_colour() {
+    let dir = scratch("colours");
+    write_gltf(&dir);
+    // Green vertices under a factor that halves green and keeps red at 0.
+    let colours: Vec<f32> = (0..8).flat_map(|_| [1.0, 1.0, 0.0]).collect();
+    std::fs::write(dir.join("colours.bin"), bytes_f32(&colours)).unwrap();
+    let json = std::fs::read_to_string(dir.join("scene.gltf"))
+        .unwrap()
+        .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0, "COLOR_0": 2}"#)
+        .replace(
+            r#""baseColorFactor": [0.8, 0.3, 0.2, 1]"#,
+            r#""baseColorFactor": [0, 0.5, 1, 1]"#,
+        )
+        .replace(
+            r#"{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}"#,
+            r#"{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"},
+    {"bufferView": 2, "componentType": 5126, "count": 8, "type": "VEC3"}"#,
+        )
+        .replace(
+            r#"{"buffer": 0, "byteOffset": 96, "byteLength": 24}"#,
+            r#"{"buffer": 0, "byteOffset": 96, "byteLength": 24},
+    {"buffer": 1, "byteLength": 96}"#,
+        )
+        .replace(
+            r#""buffers": [{"uri": "scene.bin", "byteLength": 120}]"#,
+            r#""buffers": [{"uri": "scene.bin", "byteLength": 120}, {"uri": "colours.bin", "byteLength": 96}]"#,
+        );
+    assert!(
+        json.contains("colours.bin") && json.contains("COLOR_0"),
+        "the edit did not apply"
+    );
+    let path = dir.join("coloured.gltf");
+    std::fs::write(&path, json).unwrap();
+    let s = load_gltf(&path, &options()).expect("the coloured model loads");
+    let img = render(
+        &s.scene,
+        s.integrator.as_ref(),
+        &RenderSettings { spp: 8, seed: 3 },
+        &|_| {},
+    )
+    .image;
+    // The middle of the frame is the quad: (1, 1, 0) × (0, 0.5, 1) is green.
+    let (w, h) = (img.width / 2, img.height / 2);
+    let [r, g, b] = [0, 1, 2].map(|c| img.get(w, h, c));
+    assert!(
+        g > 0.0 && g > 4.0 * r && g > 4.0 * b,
+        "the quad is {r} {g} {b}, not green"
+    );
+}
