@@ -176,8 +176,26 @@ fn lua_error(file: &Arc<PathBuf>, e: mlua::Error) -> SceneError {
         .and_then(|(line, rest)| Some((line.trim().parse::<u32>().ok()?, rest.trim())));
     match located {
         Some((line, rest)) => SceneError::at(&Location::new(file.clone(), line), rest.to_string()),
-        None => SceneError::at(&Location::new(file.clone(), 0), msg),
+        // A value a `gr` function could not take: the line that called it
+        // is the script's first frame in the traceback.
+        None => {
+            let line = traceback_line(&e, &name).unwrap_or(0);
+            SceneError::at(&Location::new(file.clone(), line), msg)
+        }
     }
+}
+
+/// The first line of the script (`name:LINE:`) in the error's traceback.
+fn traceback_line(e: &mlua::Error, name: &str) -> Option<u32> {
+    let mlua::Error::CallbackError { traceback, cause } = e else {
+        return None;
+    };
+    let prefix = format!("{name}:");
+    traceback
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix(&prefix))
+        .find_map(|rest| rest.split_once(':')?.0.parse().ok())
+        .or_else(|| traceback_line(cause, name))
 }
 
 /// The message of the error a callback raised, without mlua's wrapping.

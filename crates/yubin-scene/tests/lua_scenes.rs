@@ -109,6 +109,8 @@ fn errors_name_the_script_and_line() {
     );
     let lua_error = error_of("nil", "x = nil\n\nx.y = 3\n");
     assert!(lua_error.contains("scene.lua:3"), "{lua_error}");
+    let conversion = error_of("conversion", "n = gr.node('n')\n\nn:translate('a', 2, 3)\n");
+    assert!(conversion.contains("scene.lua:3"), "{conversion}");
     let cycle = error_of(
         "cycle",
         "a = gr.node('a')\nb = gr.node('b')\na:add_child(b)\nb:add_child(a)\ngr.render{scene = a}\n",
