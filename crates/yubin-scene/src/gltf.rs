@@ -41,7 +41,8 @@
 //!   `mask` of opacity 0 or 1 (alpha against the cutoff, per texel) and
 //!   `BLEND` a `mask` of opacity alpha (stochastic transparency). The
 //!   sampler's magnification filter (nearest or linear) and its S and T
-//!   wrap modes are used (no mipmaps: yubin's bitmaps have none). Occlusion
+//!   wrap modes are used (no mipmaps: yubin's bitmaps have none). Images
+//!   may be 8- or 16-bit, grey, grey and alpha, RGB or RGBA. Occlusion
 //!   textures are for rasterizers (light the renderer computes itself)
 //!   and are ignored. A primitive without material gets glTF's default
 //!   (white, metallic 1, roughness 1).
@@ -999,33 +1000,58 @@ impl Importer<'_, '_> {
             .images
             .get(source)
             .ok_or_else(|| self.error(format!("/images/{source} does not exist")))?;
-        let channels = match data.format {
-            gltf::image::Format::R8 => 1,
-            gltf::image::Format::R8G8 => 2,
-            gltf::image::Format::R8G8B8 => 3,
-            gltf::image::Format::R8G8B8A8 => 4,
-            other => {
-                return Err(self.error(format!(
-                    "/images/{source}: pixel format {other:?} is not supported (8-bit images only)"
-                )))
-            }
+        use gltf::image::Format as F;
+        // (channels, bytes per channel, float), as the decoder stores them
+        // (native-endian words).
+        let (channels, size, float) = match data.format {
+            F::R8 => (1, 1, false),
+            F::R8G8 => (2, 1, false),
+            F::R8G8B8 => (3, 1, false),
+            F::R8G8B8A8 => (4, 1, false),
+            F::R16 => (1, 2, false),
+            F::R16G16 => (2, 2, false),
+            F::R16G16B16 => (3, 2, false),
+            F::R16G16B16A16 => (4, 2, false),
+            F::R32G32B32FLOAT => (3, 4, true),
+            F::R32G32B32A32FLOAT => (4, 4, true),
         };
         let (w, h) = (data.width, data.height);
-        let texel = |i: usize, c: usize| -> f32 {
-            let c = c.min(channels - 1);
-            f32::from(data.pixels[i * channels + c]) / 255.0
-        };
-        let alpha = |i: usize| if channels == 4 { texel(i, 3) } else { 1.0 };
         let n = w as usize * h as usize;
         let bad = || self.error(format!("/images/{source}: its pixels do not fill {w}×{h}"));
-        if data.pixels.len() < n * channels {
+        if data.pixels.len() < n * channels * size {
             return Err(bad());
         }
+        // Channel `ch` of pixel `i`, in [0, 1] for integer data.
+        let read = |i: usize, ch: usize| -> f32 {
+            let at = (i * channels + ch) * size;
+            let b = &data.pixels[at..at + size];
+            match (size, float) {
+                (1, _) => f32::from(b[0]) / 255.0,
+                (2, _) => f32::from(u16::from_ne_bytes([b[0], b[1]])) / 65535.0,
+                _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
+            }
+        };
+        // Grey images (with or without alpha) repeat their one colour.
+        let texel = |i: usize, c: usize| read(i, if channels >= 3 { c } else { 0 });
+        let alpha = |i: usize| match channels {
+            4 => read(i, 3),
+            2 => read(i, 1),
+            _ => 1.0,
+        };
+        // Colour is sRGB-encoded in 8- and 16-bit images, linear in float.
+        let linear = |v: f32| {
+            if float {
+                v
+            } else {
+                yubin_core::texture::image::srgb_to_linear(v)
+            }
+        };
         let image = match usage {
-            ImageUse::Color(f) if f == bits([1.0; 3]) => {
+            ImageUse::Color(f) if f == bits([1.0; 3]) && size == 1 => {
+                // Kept 8-bit and encoded, as bitmaps keep PNGs.
                 let px: Vec<u8> = (0..n)
                     .flat_map(|i| (0..3).map(move |c| (i, c)))
-                    .map(|(i, c)| data.pixels[i * channels + c.min(channels - 1)])
+                    .map(|(i, c)| data.pixels[i * channels + if channels >= 3 { c } else { 0 }])
                     .collect();
                 TexImage::new(w, h, 3, ImageData::U8(px), true)
             }
@@ -1033,7 +1059,7 @@ impl Importer<'_, '_> {
                 let f = f.map(f32::from_bits);
                 let px: Vec<f32> = (0..n)
                     .flat_map(|i| (0..3).map(move |c| (i, c)))
-                    .map(|(i, c)| yubin_core::texture::image::srgb_to_linear(texel(i, c)) * f[c])
+                    .map(|(i, c)| linear(texel(i, c)) * f[c])
                     .collect();
                 TexImage::new(w, h, 3, ImageData::F32(px), false)
             }

@@ -445,3 +445,73 @@ fn vertex_colours_tint_the_base_colour() {
         "the quad is {r} {g} {b}, not green"
     );
 }
+
+/// A 16-bit grey-and-alpha PNG: the grey is every colour channel (sRGB
+/// decoded at 16 bits), the alpha the opacity of a `BLEND` material.
+#[test]
+fn sixteen_bit_grey_alpha_textures_decode() {
+    use yubin_core::texture::image::{srgb_to_linear, ImageData};
+    let dir = scratch("grey16");
+    write_gltf(&dir);
+    let (grey, alpha) = (40000u16, 30000u16);
+    let png =
+        image::ImageBuffer::<image::LumaA<u16>, _>::from_pixel(2, 2, image::LumaA([grey, alpha]));
+    png.save(dir.join("grey.png")).unwrap();
+    let uvs: Vec<f32> = (0..8).flat_map(|_| [0.5, 0.5]).collect();
+    std::fs::write(dir.join("uvs.bin"), bytes_f32(&uvs)).unwrap();
+    let json = std::fs::read_to_string(dir.join("scene.gltf"))
+        .unwrap()
+        .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0, "TEXCOORD_0": 2}"#)
+        .replace(
+            r#""baseColorFactor": [0.8, 0.3, 0.2, 1], "metallicFactor": 0, "roughnessFactor": 0.5}}"#,
+            r#""baseColorTexture": {"index": 0}}, "alphaMode": "BLEND"}],
+  "textures": [{"source": 0}],
+  "images": [{"uri": "grey.png"}"#,
+        )
+        .replace(
+            r#"{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}"#,
+            r#"{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"},
+    {"bufferView": 2, "componentType": 5126, "count": 8, "type": "VEC2"}"#,
+        )
+        .replace(
+            r#"{"buffer": 0, "byteOffset": 96, "byteLength": 24}"#,
+            r#"{"buffer": 0, "byteOffset": 96, "byteLength": 24},
+    {"buffer": 1, "byteLength": 64}"#,
+        )
+        .replace(
+            r#""buffers": [{"uri": "scene.bin", "byteLength": 120}]"#,
+            r#""buffers": [{"uri": "scene.bin", "byteLength": 120}, {"uri": "uvs.bin", "byteLength": 64}]"#,
+        );
+    assert!(
+        json.contains("grey.png") && json.contains("TEXCOORD_0"),
+        "the edit did not apply"
+    );
+    let path = dir.join("grey.gltf");
+    std::fs::write(&path, json).unwrap();
+    let s = load_gltf(&path, &options()).expect("the model loads");
+    let first = |img: &yubin_core::texture::TexImage| match &img.data {
+        ImageData::F32(v) => v[0],
+        ImageData::U8(v) => f32::from(v[0]) / 255.0,
+    };
+    let images = &s.scene.materials.images;
+    let colour = images
+        .iter()
+        .find(|i| i.channels == 3)
+        .expect("the colour image");
+    let opacity = images
+        .iter()
+        .find(|i| i.channels == 1)
+        .expect("the opacity image");
+    let want = srgb_to_linear(f32::from(grey) / 65535.0);
+    assert!(
+        (first(colour) - want).abs() < 1e-6,
+        "colour {} vs {want}",
+        first(colour)
+    );
+    let want = f32::from(alpha) / 65535.0;
+    assert!(
+        (first(opacity) - want).abs() < 1e-6,
+        "opacity {} vs {want}",
+        first(opacity)
+    );
+}
