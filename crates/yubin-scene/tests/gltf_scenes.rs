@@ -393,40 +393,66 @@ fn malformed_hierarchies_and_attributes_are_errors() {
     }
 }
 
+/// The quad-and-floor glTF of [`write_gltf`] with one more vertex
+/// attribute (`name`, of accessor `kind` such as `"VEC3"`), its floats in
+/// `file`, and its material replaced by `material` (the JSON after
+/// `"materials": [`, up to and including the material's closing brace).
+fn with_attribute(
+    dir: &Path,
+    name: &str,
+    kind: &str,
+    values: &[f32],
+    file: &str,
+    material: &str,
+) -> String {
+    std::fs::write(dir.join(file), bytes_f32(values)).unwrap();
+    let len = values.len() * 4;
+    let json = std::fs::read_to_string(write_gltf(dir))
+        .unwrap()
+        .replace(
+            r#""attributes": {"POSITION": 0}"#,
+            &format!(r#""attributes": {{"POSITION": 0, "{name}": 2}}"#),
+        )
+        .replace(
+            r#"{"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.3, 0.2, 1], "metallicFactor": 0, "roughnessFactor": 0.5}}"#,
+            material,
+        )
+        .replace(
+            r#"{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}"#,
+            &format!(
+                r#"{{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}},
+    {{"bufferView": 2, "componentType": 5126, "count": 8, "type": "{kind}"}}"#
+            ),
+        )
+        .replace(
+            r#"{"buffer": 0, "byteOffset": 96, "byteLength": 24}"#,
+            &format!(
+                r#"{{"buffer": 0, "byteOffset": 96, "byteLength": 24}},
+    {{"buffer": 1, "byteLength": {len}}}"#
+            ),
+        )
+        .replace(
+            r#""buffers": [{"uri": "scene.bin", "byteLength": 120}]"#,
+            &format!(
+                r#""buffers": [{{"uri": "scene.bin", "byteLength": 120}}, {{"uri": "{file}", "byteLength": {len}}}]"#
+            ),
+        );
+    assert!(
+        json.contains(file) && json.contains(name),
+        "the edit did not apply"
+    );
+    json
+}
+
 /// `COLOR_0` times the base colour factor colours the surface (as the
 /// `vertex_color` attribute the base colour reads).
 #[test]
 fn vertex_colours_tint_the_base_colour() {
     let dir = scratch("colours");
-    write_gltf(&dir);
     // Green vertices under a factor that halves green and keeps red at 0.
     let colours: Vec<f32> = (0..8).flat_map(|_| [1.0, 1.0, 0.0]).collect();
-    std::fs::write(dir.join("colours.bin"), bytes_f32(&colours)).unwrap();
-    let json = std::fs::read_to_string(dir.join("scene.gltf"))
-        .unwrap()
-        .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0, "COLOR_0": 2}"#)
-        .replace(
-            r#""baseColorFactor": [0.8, 0.3, 0.2, 1]"#,
-            r#""baseColorFactor": [0, 0.5, 1, 1]"#,
-        )
-        .replace(
-            r#"{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}"#,
-            r#"{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"},
-    {"bufferView": 2, "componentType": 5126, "count": 8, "type": "VEC3"}"#,
-        )
-        .replace(
-            r#"{"buffer": 0, "byteOffset": 96, "byteLength": 24}"#,
-            r#"{"buffer": 0, "byteOffset": 96, "byteLength": 24},
-    {"buffer": 1, "byteLength": 96}"#,
-        )
-        .replace(
-            r#""buffers": [{"uri": "scene.bin", "byteLength": 120}]"#,
-            r#""buffers": [{"uri": "scene.bin", "byteLength": 120}, {"uri": "colours.bin", "byteLength": 96}]"#,
-        );
-    assert!(
-        json.contains("colours.bin") && json.contains("COLOR_0"),
-        "the edit did not apply"
-    );
+    let material = r#"{"pbrMetallicRoughness": {"baseColorFactor": [0, 0.5, 1, 1]}}"#;
+    let json = with_attribute(&dir, "COLOR_0", "VEC3", &colours, "colours.bin", material);
     let path = dir.join("coloured.gltf");
     std::fs::write(&path, json).unwrap();
     let s = load_gltf(&path, &options()).expect("the coloured model loads");
@@ -452,40 +478,15 @@ fn vertex_colours_tint_the_base_colour() {
 fn sixteen_bit_grey_alpha_textures_decode() {
     use yubin_core::texture::image::{srgb_to_linear, ImageData};
     let dir = scratch("grey16");
-    write_gltf(&dir);
     let (grey, alpha) = (40000u16, 30000u16);
     let png =
         image::ImageBuffer::<image::LumaA<u16>, _>::from_pixel(2, 2, image::LumaA([grey, alpha]));
     png.save(dir.join("grey.png")).unwrap();
     let uvs: Vec<f32> = (0..8).flat_map(|_| [0.5, 0.5]).collect();
-    std::fs::write(dir.join("uvs.bin"), bytes_f32(&uvs)).unwrap();
-    let json = std::fs::read_to_string(dir.join("scene.gltf"))
-        .unwrap()
-        .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0, "TEXCOORD_0": 2}"#)
-        .replace(
-            r#""baseColorFactor": [0.8, 0.3, 0.2, 1], "metallicFactor": 0, "roughnessFactor": 0.5}}"#,
-            r#""baseColorTexture": {"index": 0}}, "alphaMode": "BLEND"}],
+    let material = r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}, "alphaMode": "BLEND"}],
   "textures": [{"source": 0}],
-  "images": [{"uri": "grey.png"}"#,
-        )
-        .replace(
-            r#"{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}"#,
-            r#"{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"},
-    {"bufferView": 2, "componentType": 5126, "count": 8, "type": "VEC2"}"#,
-        )
-        .replace(
-            r#"{"buffer": 0, "byteOffset": 96, "byteLength": 24}"#,
-            r#"{"buffer": 0, "byteOffset": 96, "byteLength": 24},
-    {"buffer": 1, "byteLength": 64}"#,
-        )
-        .replace(
-            r#""buffers": [{"uri": "scene.bin", "byteLength": 120}]"#,
-            r#""buffers": [{"uri": "scene.bin", "byteLength": 120}, {"uri": "uvs.bin", "byteLength": 64}]"#,
-        );
-    assert!(
-        json.contains("grey.png") && json.contains("TEXCOORD_0"),
-        "the edit did not apply"
-    );
+  "images": [{"uri": "grey.png"}"#;
+    let json = with_attribute(&dir, "TEXCOORD_0", "VEC2", &uvs, "uvs.bin", material);
     let path = dir.join("grey.gltf");
     std::fs::write(&path, json).unwrap();
     let s = load_gltf(&path, &options()).expect("the model loads");
