@@ -382,10 +382,7 @@ impl UserData for Node {
             Ok(())
         });
         methods.add_method("add_child", |lua, this, child: AnyUserData| {
-            let child = child
-                .borrow::<Node>()
-                .map_err(|_| fail(lua, "add_child: the child must be a node"))?
-                .clone();
+            let child: Node = value_of(lua, &child, "add_child: the child must be a node")?;
             if Rc::ptr_eq(&this.0, &child.0) {
                 return Err(fail(lua, "add_child: a node cannot be its own child"));
             }
@@ -393,10 +390,7 @@ impl UserData for Node {
             Ok(())
         });
         methods.add_method("set_material", |lua, this, m: AnyUserData| {
-            let m = m
-                .borrow::<Mat>()
-                .map_err(|_| fail(lua, "set_material: expects a gr.material"))?
-                .clone();
+            let m: Mat = value_of(lua, &m, "set_material: expects a gr.material")?;
             this.0.borrow_mut().material = Some(m);
             Ok(())
         });
@@ -419,6 +413,13 @@ struct Render {
     ambient: [f64; 3],
     env: Option<PathBuf>,
     max_depth: Option<i64>,
+}
+
+/// The `T` a userdata holds, or the error `wrong` at the script's line.
+fn value_of<T: Clone + 'static>(lua: &Lua, ud: &AnyUserData, wrong: &str) -> mlua::Result<T> {
+    ud.borrow::<T>()
+        .map(|v| v.clone())
+        .map_err(|_| fail(lua, wrong))
 }
 
 /// Three numbers from a table `{x, y, z}` (or one number, repeated).
@@ -668,10 +669,7 @@ fn render_args(lua: &Lua, ctx: &Ctx, args: mlua::MultiValue) -> mlua::Result<Ren
     let scene: AnyUserData = named
         .get::<Option<AnyUserData>>("scene")?
         .ok_or_else(|| fail(lua, "gr.render: needs scene = a node"))?;
-    let scene = scene
-        .borrow::<Node>()
-        .map_err(|_| fail(lua, "gr.render: scene must be a node"))?
-        .clone();
+    let scene: Node = value_of(lua, &scene, "gr.render: scene must be a node")?;
     let vec3 = |name: &str, default: [f64; 3]| -> mlua::Result<DVec3> {
         match named.get::<LuaValue>(name)? {
             LuaValue::Nil => Ok(DVec3::from(default)),
@@ -694,10 +692,7 @@ fn render_args(lua: &Lua, ctx: &Ctx, args: mlua::MultiValue) -> mlua::Result<Ren
     let mut lights = Vec::new();
     if let Some(list) = named.get::<Option<Table>>("lights")? {
         for v in list.sequence_values::<AnyUserData>() {
-            let l = v?
-                .borrow::<Light>()
-                .map_err(|_| fail(lua, "gr.render lights: expects gr.light values"))?
-                .clone();
+            let l: Light = value_of(lua, &v?, "gr.render lights: expects gr.light values")?;
             lights.push(l);
         }
     }
