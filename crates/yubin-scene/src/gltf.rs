@@ -450,7 +450,11 @@ fn open_checked(path: &Path) -> Result<gltf::Gltf, SceneError> {
             }
         }
     }
-    gltf::Gltf::from_slice(&bytes).map_err(|e| gltf_error(path, e))
+    // Validated once, from the JSON already parsed.
+    let gltf::Gltf { document, blob } = unchecked;
+    let document =
+        gltf::Document::from_json(document.into_json()).map_err(|e| gltf_error(path, e))?;
+    Ok(gltf::Gltf { document, blob })
 }
 
 /// Every accessor's bytes lie inside its buffer view, and every view

@@ -272,17 +272,16 @@ impl PrincipledLobe {
     /// `f` of the facet the specular lobes use.
     #[inline]
     fn lobe_probabilities(&self, front: bool, f: f32) -> [f32; 4] {
-        let p = self;
         let [rd, rs, rc] = self.rates;
         let probs = if front {
             [
-                rd * p.opaque,
-                0.25 * p.clearcoat * rc,
-                rs * (1.0 - p.glass * (1.0 - f)),
-                rs * p.glass * (1.0 - f),
+                rd * self.opaque,
+                0.25 * self.clearcoat * rc,
+                rs * (1.0 - self.glass * (1.0 - f)),
+                rs * self.glass * (1.0 - f),
             ]
         } else {
-            [0.0, 0.0, f, if p.glass > 0.0 { 1.0 - f } else { 0.0 }]
+            [0.0, 0.0, f, if self.glass > 0.0 { 1.0 - f } else { 0.0 }]
         };
         let total: f32 = probs.iter().sum();
         if total > 0.0 {
@@ -305,19 +304,22 @@ impl PrincipledLobe {
     /// The main specular reflection's Fresnel term (see the module docs).
     #[inline]
     fn principled_fresnel(&self, f: f32, cos_oh: f32, front: bool) -> Rgb {
-        let p = self;
         if !front {
-            return Rgb::splat(p.glass * f);
+            return Rgb::splat(self.glass * f);
         }
-        let v = &p.v;
-        let mut fr = Rgb::splat((1.0 - p.metallic) * (1.0 - v.spec_tint) * f);
-        if p.metallic > 0.0 {
-            fr += p.metallic * schlick_fresnel(v.base_color, cos_oh, p.eta);
+        let v = &self.v;
+        let mut fr = Rgb::splat((1.0 - self.metallic) * (1.0 - v.spec_tint) * f);
+        if self.metallic > 0.0 {
+            fr += self.metallic * schlick_fresnel(v.base_color, cos_oh, self.eta);
         }
         if v.spec_tint > 0.0 {
-            let eta_it = if cos_oh >= 0.0 { p.eta } else { 1.0 / p.eta };
+            let eta_it = if cos_oh >= 0.0 {
+                self.eta
+            } else {
+                1.0 / self.eta
+            };
             let r0 = tint_color(v.base_color) * schlick_r0(eta_it);
-            fr += (1.0 - p.metallic) * v.spec_tint * schlick_fresnel(r0, cos_oh, p.eta);
+            fr += (1.0 - self.metallic) * v.spec_tint * schlick_fresnel(r0, cos_oh, self.eta);
         }
         fr
     }
@@ -328,14 +330,13 @@ impl Scatter for PrincipledLobe {
         if wo.z == 0.0 {
             return None;
         }
-        let p = self;
         let front = wo.z > 0.0;
-        if !front && p.glass <= 0.0 {
+        if !front && self.glass <= 0.0 {
             return None;
         }
         let up = if front { wo } else { -wo };
-        let h = p.dist.sample_normal(up, u2).unwrap_or(Vec3::Z);
-        let (f, cos_t, eta_it, eta_ti) = fresnel_dielectric(wo.dot(h), p.eta);
+        let h = self.dist.sample_normal(up, u2).unwrap_or(Vec3::Z);
+        let (f, cos_t, eta_it, eta_ti) = fresnel_dielectric(wo.dot(h), self.eta);
         let [pd, pc, pr, _] = self.lobe_probabilities(front, f);
         // A facet lobe's direction must leave on the side its lobe scatters
         // to, through the facet's proper side (else the lobe missed, and
@@ -344,7 +345,7 @@ impl Scatter for PrincipledLobe {
             let wi = square_to_cosine_hemisphere(u2);
             (wi, BsdfFlags::DIFFUSE_REFLECTION, 1.0)
         } else if u1 < pd + pc {
-            let c = p.coat.sample(u2);
+            let c = self.coat.sample(u2);
             let wi = reflect_m(wo, c);
             if wi.z <= 0.0 || !facet_agrees(c, wo, wi, true) {
                 return None;
@@ -391,70 +392,68 @@ impl Scatter for PrincipledLobe {
 impl PrincipledLobe {
     #[inline]
     fn eval_at(&self, ctx: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
-        let p = self;
         let (co, ci) = (wo.z, wi.z);
         if co == 0.0 || co * ci == 0.0 {
             return Rgb::ZERO;
         }
         let front = co > 0.0;
         let reflect = co * ci > 0.0;
-        let (h, eta_path) = Self::half_vector(p.eta, wo, wi);
+        let (h, eta_path) = Self::half_vector(self.eta, wo, wi);
         let (oh, ih) = (wo.dot(h), wi.dot(h));
-        let (f, ..) = fresnel_dielectric(oh, p.eta);
+        let (f, ..) = fresnel_dielectric(oh, self.eta);
         let mut value = Rgb::ZERO;
-        let specular_d_g = || p.dist.d(h) * p.dist.g(wo, wi, h);
+        let specular_d_g = || self.dist.d(h) * self.dist.g(wo, wi, h);
         if reflect && facet_agrees(h, wo, wi, true) {
             if f > 0.0 {
                 let fr = self.principled_fresnel(f, oh, front);
                 value += fr * (specular_d_g() / (4.0 * co.abs()));
             }
-            if front && p.clearcoat > 0.0 {
-                let fc = schlick_fresnel(Rgb::splat(0.04), oh, p.eta).x;
-                let dc = p.coat.d(h) * COAT_MASKING.g(wo, wi, h);
-                value += Rgb::splat(0.25 * p.clearcoat * fc * dc * ci.abs());
+            if front && self.clearcoat > 0.0 {
+                let fc = schlick_fresnel(Rgb::splat(0.04), oh, self.eta).x;
+                let dc = self.coat.d(h) * COAT_MASKING.g(wo, wi, h);
+                value += Rgb::splat(0.25 * self.clearcoat * fc * dc * ci.abs());
             }
-        } else if !reflect && p.glass > 0.0 && f < 1.0 && facet_agrees(h, wo, wi, false) {
+        } else if !reflect && self.glass > 0.0 && f < 1.0 && facet_agrees(h, wo, wi, false) {
             let scale = refraction_scale(ctx.mode, eta_path);
             let t = scale * (1.0 - f) * specular_d_g() * eta_path * eta_path * oh * ih
                 / (co * (oh + eta_path * ih) * (oh + eta_path * ih));
-            value += sqrt_rgb(p.v.base_color) * (p.glass * t.abs());
+            value += sqrt_rgb(self.v.base_color) * (self.glass * t.abs());
         }
-        if reflect && front && p.opaque > 0.0 {
+        if reflect && front && self.opaque > 0.0 {
             let cos_d = h.dot(wi);
-            value += diffuse_term(&p.v, p.opaque, co.abs(), ci.abs(), cos_d);
-            value += sheen_term(&p.v, 1.0 - p.metallic, ci.abs(), cos_d);
+            value += diffuse_term(&self.v, self.opaque, co.abs(), ci.abs(), cos_d);
+            value += sheen_term(&self.v, 1.0 - self.metallic, ci.abs(), cos_d);
         }
         value
     }
 
     #[inline]
     fn pdf_at(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let p = self;
         let (co, ci) = (wo.z, wi.z);
         if co == 0.0 || co * ci == 0.0 {
             return 0.0;
         }
         let front = co > 0.0;
-        if !front && p.glass <= 0.0 {
+        if !front && self.glass <= 0.0 {
             return 0.0;
         }
         let reflect = co * ci > 0.0;
-        let (h, eta_path) = Self::half_vector(p.eta, wo, wi);
+        let (h, eta_path) = Self::half_vector(self.eta, wo, wi);
         let (oh, ih) = (wo.dot(h), wi.dot(h));
-        let (f, ..) = fresnel_dielectric(oh, p.eta);
+        let (f, ..) = fresnel_dielectric(oh, self.eta);
         let [pd, pc, pr, pt] = self.lobe_probabilities(front, f);
         let up = if front { wo } else { -wo };
         let mut pdf = 0.0;
         if reflect {
             if facet_agrees(h, wo, wi, true) {
                 let dh_dwi = 1.0 / (4.0 * ih.abs());
-                pdf += (pr * p.dist.pdf(up, h) + pc * p.coat.pdf(h)) * dh_dwi;
+                pdf += (pr * self.dist.pdf(up, h) + pc * self.coat.pdf(h)) * dh_dwi;
             }
             pdf += pd * cosine_hemisphere_pdf(wi);
         } else if pt > 0.0 && facet_agrees(h, wo, wi, false) {
             let denom = oh + eta_path * ih;
             let dh_dwi = (eta_path * eta_path * ih / (denom * denom)).abs();
-            pdf += pt * p.dist.pdf(up, h) * dh_dwi;
+            pdf += pt * self.dist.pdf(up, h) * dh_dwi;
         }
         pdf
     }

@@ -188,9 +188,8 @@ impl PrincipledThinLobe {
     /// diffuse reflection and diffuse transmission.
     #[inline]
     fn lobe_probabilities(&self) -> [f32; 4] {
-        let p = self;
-        let t = p.v.spec_trans;
-        let d = p.diff_trans;
+        let t = self.v.spec_trans;
+        let d = self.diff_trans;
         let probs = [
             0.5 * t * self.rates[0],
             0.5 * t * self.rates[1],
@@ -211,21 +210,20 @@ impl Scatter for PrincipledThinLobe {
         if wo.z == 0.0 {
             return None;
         }
-        let p = self;
         let (up, _) = to_front(wo, Vec3::Z);
         let [psr, pst, pdr, _] = self.lobe_probabilities();
         // A facet lobe's direction must end up on its own side, through
         // the facet's proper side (else another lobe's density would
         // claim it).
         let (wi_up, sampled) = if u1 < psr {
-            let h = p.reflection.sample_normal(up, u2).unwrap_or(Vec3::Z);
+            let h = self.reflection.sample_normal(up, u2).unwrap_or(Vec3::Z);
             let wi = reflect_m(up, h);
             if wi.z <= 0.0 || !facet_agrees(h, up, wi, true) {
                 return None;
             }
             (wi, BsdfFlags::GLOSSY_REFLECTION)
         } else if u1 < psr + pst {
-            let h = p.transmission.sample_normal(up, u2).unwrap_or(Vec3::Z);
+            let h = self.transmission.sample_normal(up, u2).unwrap_or(Vec3::Z);
             let r = reflect_m(up, h);
             let wi = Vec3::new(r.x, r.y, -r.z);
             if wi.z >= 0.0 || !facet_agrees(h, up, wi, false) {
@@ -269,7 +267,6 @@ impl Scatter for PrincipledThinLobe {
 impl PrincipledThinLobe {
     #[inline]
     fn eval_at(&self, _: &BsdfContext, wo: Vec3, wi: Vec3) -> Rgb {
-        let p = self;
         if wo.z == 0.0 || wi.z == 0.0 {
             return Rgb::ZERO;
         }
@@ -277,32 +274,32 @@ impl PrincipledThinLobe {
         let (co, ci) = (wo.z, wi.z);
         let reflect = ci > 0.0;
         let h = thin_half_vector(wo, wi);
-        let (t, d) = (p.v.spec_trans, p.diff_trans);
+        let (t, d) = (self.v.spec_trans, self.diff_trans);
         let mut value = Rgb::ZERO;
         if t > 0.0 && facet_agrees(h, wo, wi, reflect) {
-            let (f, ..) = fresnel_dielectric(wo.dot(h), p.eta);
+            let (f, ..) = fresnel_dielectric(wo.dot(h), self.eta);
             if reflect {
                 let mut fr = Rgb::splat(f);
-                if p.v.spec_tint > 0.0 {
-                    let r0 = tint_color(p.v.base_color) * schlick_r0(p.eta);
-                    let s = schlick_fresnel(r0, wo.dot(h), p.eta);
-                    fr += (s - fr) * p.v.spec_tint;
+                if self.v.spec_tint > 0.0 {
+                    let r0 = tint_color(self.v.base_color) * schlick_r0(self.eta);
+                    let s = schlick_fresnel(r0, wo.dot(h), self.eta);
+                    fr += (s - fr) * self.v.spec_tint;
                 }
-                let dg = p.reflection.d(h) * p.reflection.g(wo, wi, h);
+                let dg = self.reflection.d(h) * self.reflection.g(wo, wi, h);
                 value += fr * (t * dg / (4.0 * co));
             } else {
-                let dg = p.transmission.d(h) * p.transmission.g(wo, wi, h);
-                value += p.v.base_color * (t * (1.0 - f) * dg / (4.0 * co));
+                let dg = self.transmission.d(h) * self.transmission.g(wo, wi, h);
+                value += self.v.base_color * (t * (1.0 - f) * dg / (4.0 * co));
             }
         }
         if t < 1.0 {
             if reflect && d < 1.0 {
                 let w = (1.0 - t) * (1.0 - d);
                 let cos_d = h.dot(wi);
-                value += diffuse_term(&p.v, w, co, ci, cos_d);
-                value += sheen_term(&p.v, w, ci, cos_d);
+                value += diffuse_term(&self.v, w, co, ci, cos_d);
+                value += sheen_term(&self.v, w, ci, cos_d);
             } else if !reflect && d > 0.0 {
-                value += p.v.base_color * ((1.0 - t) * d * FRAC_1_PI * ci.abs());
+                value += self.v.base_color * ((1.0 - t) * d * FRAC_1_PI * ci.abs());
             }
         }
         value
@@ -310,7 +307,6 @@ impl PrincipledThinLobe {
 
     #[inline]
     fn pdf_at(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let p = self;
         if wo.z == 0.0 || wi.z == 0.0 {
             return 0.0;
         }
@@ -323,9 +319,9 @@ impl PrincipledThinLobe {
             let dh_dwi = 1.0 / (4.0 * Vec3::new(wi.x, wi.y, wi.z.abs()).dot(h).abs());
             pdf += dh_dwi
                 * if reflect {
-                    psr * p.reflection.pdf(wo, h)
+                    psr * self.reflection.pdf(wo, h)
                 } else {
-                    pst * p.transmission.pdf(wo, h)
+                    pst * self.transmission.pdf(wo, h)
                 };
         }
         pdf + if reflect {

@@ -95,23 +95,29 @@ fn stem(path: &Path) -> String {
 /// `digits` (or to the run's length if longer); without `#`, `_NNNN` is
 /// added before the extension.
 fn numbered(template: &Path, frame: i64, digits: usize) -> Result<PathBuf> {
+    let (before, width, after) = split_at_hashes(template, digits)?;
+    Ok(PathBuf::from(format!("{before}{frame:0width$}{after}")))
+}
+
+/// `template` around its run of `#` (or, without one, around `_` added
+/// before the extension), and the frame number's width: the run's length
+/// or `digits`, whichever is more.
+fn split_at_hashes(template: &Path, digits: usize) -> Result<(String, usize, String)> {
     let text = template.to_string_lossy();
-    let (before, after, width) = match text.find('#') {
-        Some(start) => {
-            let end = start + text[start..].chars().take_while(|&c| c == '#').count();
-            (&text[..start], &text[end..], (end - start).max(digits))
-        }
-        None => {
-            let ext = template.extension().map(|e| e.len() + 1).unwrap_or(0);
-            let cut = text.len() - ext;
-            let (b, a) = text.split_at(cut);
-            return Ok(PathBuf::from(format!("{b}_{frame:0digits$}{a}")));
-        }
+    let Some(start) = text.find('#') else {
+        let ext = template.extension().map(|e| e.len() + 1).unwrap_or(0);
+        let (b, a) = text.split_at(text.len() - ext);
+        return Ok((format!("{b}_"), digits, a.to_string()));
     };
-    if after.contains('#') {
+    let end = start + text[start..].chars().take_while(|&c| c == '#').count();
+    if text[end..].contains('#') {
         bail!("the output {text} has more than one run of '#'");
     }
-    Ok(PathBuf::from(format!("{before}{frame:0width$}{after}")))
+    Ok((
+        text[..start].to_string(),
+        (end - start).max(digits),
+        text[end..].to_string(),
+    ))
 }
 
 fn check_ffmpeg() -> Result<()> {
@@ -126,23 +132,8 @@ fn check_ffmpeg() -> Result<()> {
 
 /// The frames `template` names, from `first`, as an H.264 MP4.
 fn stitch(template: &Path, first: i64, digits: usize, fps: f64, video: &Path) -> Result<()> {
-    let text = template.to_string_lossy();
-    let input = match text.find('#') {
-        Some(start) => {
-            let end = start + text[start..].chars().take_while(|&c| c == '#').count();
-            format!(
-                "{}%0{}d{}",
-                &text[..start],
-                (end - start).max(digits),
-                &text[end..]
-            )
-        }
-        None => {
-            let ext = template.extension().map(|e| e.len() + 1).unwrap_or(0);
-            let (b, a) = text.split_at(text.len() - ext);
-            format!("{b}_%0{digits}d{a}")
-        }
-    };
+    let (before, width, after) = split_at_hashes(template, digits)?;
+    let input = format!("{before}%0{width}d{after}");
     let status = Command::new("ffmpeg")
         .args(["-y", "-loglevel", "error", "-framerate"])
         .arg(fps.to_string())
