@@ -583,6 +583,12 @@ impl Builder<'_> {
         if let Some(b) = bsdf {
             self.check_attributes(obj, &shape, b)?;
         }
+        if emission.is_some() && matches!(shape, Shape::Sdf(_)) {
+            return Err(obj.error(format!(
+                "a \"{}\" shape cannot carry an area emitter: its surface cannot be sampled",
+                obj.plugin_type
+            )));
+        }
         let analytic = !matches!(shape, Shape::Mesh(_));
         let id = self
             .sb

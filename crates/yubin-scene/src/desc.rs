@@ -77,11 +77,13 @@ pub enum Category {
     Volume,
     /// `<spectrum type="...">`: a spectrum plugin (blackbody, ...).
     Spectrum,
+    /// `<sdf>`: a node of an `sdf` shape's distance function.
+    Sdf,
 }
 
 impl Category {
     /// Every category, in declaration order.
-    pub const ALL: [Category; 14] = [
+    pub const ALL: [Category; 15] = [
         Category::Scene,
         Category::Shape,
         Category::Bsdf,
@@ -96,6 +98,7 @@ impl Category {
         Category::Phase,
         Category::Volume,
         Category::Spectrum,
+        Category::Sdf,
     ];
 
     /// The XML tag name (`"bsdf"`, `"rfilter"`, ...).
@@ -115,6 +118,7 @@ impl Category {
             Category::Phase => "phase",
             Category::Volume => "volume",
             Category::Spectrum => "spectrum",
+            Category::Sdf => "sdf",
         }
     }
 

@@ -47,6 +47,7 @@ fn category_of(family: Family) -> Category {
         Family::Integrator => Category::Integrator,
         Family::Phase => Category::Phase,
         Family::Volume => Category::Volume,
+        Family::Sdf => Category::Sdf,
     }
 }
 

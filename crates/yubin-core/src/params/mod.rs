@@ -102,6 +102,8 @@ pub enum Family {
     Phase,
     /// `<volume>`: a medium's spatially varying parameter.
     Volume,
+    /// `<sdf>`: a node of an `sdf` shape's distance function.
+    Sdf,
 }
 
 /// The constructor of `p`'s plugin type in a family's plugin table

@@ -417,6 +417,7 @@ fn family_label(f: Family) -> &'static str {
         Family::Integrator => "integrator",
         Family::Phase => "phase_function",
         Family::Volume => "volume",
+        Family::Sdf => "sdf",
     }
 }
 

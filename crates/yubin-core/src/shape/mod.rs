@@ -16,8 +16,11 @@ mod avx2;
 pub mod cube;
 mod cylinder;
 mod disk;
+pub mod mandelbox;
 mod mesh;
 mod rectangle;
+pub mod sdf;
+pub mod sdf_tree;
 mod sphere;
 mod triangle;
 
@@ -31,6 +34,7 @@ pub(crate) use mesh::tests as mesh_tests;
 pub use mesh::{MeshData, MeshShape, TriangleMesh};
 pub(crate) use rectangle::NearZone;
 pub use rectangle::Rectangle;
+pub use sdf::SdfShape;
 pub use sphere::Sphere;
 pub(crate) use triangle::lane_tests_avx2;
 pub use triangle::{TrianglePackets, WatertightRay, PACKET};
@@ -88,6 +92,14 @@ pub const PLUGINS: &[(&str, ShapeFromParams)] = &[
             Cylinder::from_params(p)?,
         )))
     }),
+    ("sdf", |p| {
+        Ok(BuiltShape::Analytic(Shape::Sdf(SdfShape::from_params(p)?)))
+    }),
+    ("mandelbox", |p| {
+        Ok(BuiltShape::Analytic(Shape::Sdf(
+            SdfShape::mandelbox_from_params(p)?,
+        )))
+    }),
 ];
 
 /// The `to_world` and `flip_normals` of a shape placed by a transform
@@ -99,8 +111,8 @@ pub(crate) fn placement(p: &mut dyn Params) -> Result<(Transform, bool), ParamEr
 
 /// Builds the shape `p` describes, by its plugin type.
 pub fn from_params(p: &mut dyn Params) -> Result<BuiltShape, ParamError> {
-    let known =
-        "obj, ply, serialized, cube, sphere, rectangle, disk, cylinder, shapegroup, instance";
+    let known = "obj, ply, serialized, cube, sphere, rectangle, disk, cylinder, sdf, mandelbox, \
+                 shapegroup, instance";
     plugin_of(p, "shape", PLUGINS, Some(known))?(p)
 }
 
@@ -253,6 +265,8 @@ pub enum Shape {
     Cylinder(Cylinder),
     /// `cube`.
     Cube(Cube),
+    /// `sdf` and `mandelbox`: ray marched.
+    Sdf(SdfShape),
 }
 
 impl Shape {
@@ -275,7 +289,7 @@ impl Shape {
             Shape::Rectangle(r) => Some(r.intersect_packet(rays, t_max)),
             Shape::Disk(d) => Some(d.intersect_packet(rays, t_max)),
             Shape::Cube(c) => Some(c.intersect_packet(rays, t_max)),
-            Shape::Mesh(_) | Shape::Cylinder(_) => None,
+            Shape::Mesh(_) | Shape::Cylinder(_) | Shape::Sdf(_) => None,
         }
     }
 
@@ -305,6 +319,8 @@ impl Shape {
                 ..c
             }),
             Shape::Cube(c) => Shape::Cube(Cube::new(t.after(&c.to_world), c.flip_normals)),
+            // Never an emitter, so never placed for light sampling.
+            Shape::Sdf(_) => return None,
         })
     }
 }
@@ -318,6 +334,7 @@ macro_rules! dispatch {
             Shape::Disk($s) => $e,
             Shape::Cylinder($s) => $e,
             Shape::Cube($s) => $e,
+            Shape::Sdf($s) => $e,
         }
     };
 }
