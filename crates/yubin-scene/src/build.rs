@@ -583,7 +583,7 @@ impl Builder<'_> {
         if let Some(b) = bsdf {
             self.check_attributes(obj, &shape, b)?;
         }
-        if emission.is_some() && matches!(shape, Shape::Sdf(_)) {
+        if emission.is_some() && matches!(shape, Shape::Sdf(_) | Shape::SdfGrid(_)) {
             return Err(obj.error(format!(
                 "a \"{}\" shape cannot carry an area emitter: its surface cannot be sampled",
                 obj.plugin_type

@@ -13,7 +13,8 @@
 //! Every check fails with a message that says what is wrong: a file too
 //! short for its header or its data (truncated), another magic number,
 //! version or encoding, impossible resolutions or channel counts, and
-//! negative or non-finite values (densities cannot be negative).
+//! non-finite values. Values may be negative (an `sdfgrid`'s distances);
+//! `gridvolume` refuses negative densities when it takes the grid.
 
 use glam::Vec3;
 use std::path::Path;
@@ -87,7 +88,7 @@ pub fn parse_vol(bytes: &[u8]) -> Result<Grid, String> {
         .chunks_exact(4)
         .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
         .collect();
-    Grid::new(
+    Grid::new_signed(
         dims.map(|d| d as u32),
         channels as u32,
         Bounds3 { min, max },
@@ -144,12 +145,17 @@ pub(crate) mod tests {
             (vol_bytes([2, 0, 2], 1, &[]), "resolution"),
             (vol_bytes([1, 1, 1], 2, &[1.0, 1.0]), "2 channels"),
             (
-                vol_bytes([2, 1, 1], 1, &[1.0, -0.5]),
-                "voxel [1, 0, 0] holds -0.5",
+                vol_bytes([2, 1, 1], 1, &[1.0, f32::NAN]),
+                "voxel [1, 0, 0] holds NaN",
             ),
         ] {
             let e = parse_vol(&bytes).unwrap_err();
             assert!(e.contains(says), "{e}");
         }
+        // Negative values are read (signed distances); a density grid
+        // refuses them when it takes the grid.
+        let signed = parse_vol(&vol_bytes([2, 1, 1], 1, &[1.0, -0.5])).unwrap();
+        let e = signed.check_non_negative().unwrap_err().to_string();
+        assert!(e.contains("voxel [1, 0, 0] holds -0.5"), "{e}");
     }
 }

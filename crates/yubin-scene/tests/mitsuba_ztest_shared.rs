@@ -277,3 +277,15 @@ fn ztest_participating_media_volpathmis_shared() {
         );
     }
 }
+
+/// Every analytic shape, the three mesh formats and an `sdfgrid` (the
+/// torus grid of Mitsuba's docs, with smooth normals, in an instance)
+/// under a checkerboard.
+#[test]
+fn ztest_various_shapes_path_shared() {
+    z_test_scene(
+        "ztest_various_shapes_path_shared",
+        "various_shapes/test_various_shapes_path.xml",
+        "various_shapes/refs/test_various_shapes_ref_rgb",
+    );
+}

@@ -70,6 +70,19 @@ impl Grid {
         bounds: Bounds3,
         data: Vec<f32>,
     ) -> Result<Self, GridError> {
+        let g = Self::new_signed(res, channels, bounds, data)?;
+        g.check_non_negative()?;
+        Ok(g)
+    }
+
+    /// A grid whose values may be negative (a signed distance grid),
+    /// checked: every value finite.
+    pub fn new_signed(
+        res: [u32; 3],
+        channels: u32,
+        bounds: Bounds3,
+        data: Vec<f32>,
+    ) -> Result<Self, GridError> {
         if res.contains(&0) {
             return Err(GridError::Shape(format!("resolution {res:?} has a zero")));
         }
@@ -85,26 +98,44 @@ impl Grid {
                 found: data.len(),
             });
         }
-        if let Some(i) = data.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
-            let voxel = i / channels as usize;
-            let (x, y, z) = (
-                voxel % res[0] as usize,
-                voxel / res[0] as usize % res[1] as usize,
-                voxel / (res[0] as usize * res[1] as usize),
-            );
-            return Err(GridError::Value {
-                voxel: [x as u32, y as u32, z as u32],
-                value: data[i],
-            });
-        }
-        let max = data.iter().copied().fold(0.0, f32::max);
-        Ok(Self {
+        let grid = |data| Self {
             res,
             channels,
             bounds,
             data,
-            max,
-        })
+            max: 0.0,
+        };
+        if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+            return Err(grid(Vec::new()).value_error(i, data[i]));
+        }
+        let max = data.iter().copied().fold(0.0, f32::max);
+        Ok(Self { max, ..grid(data) })
+    }
+
+    /// An error unless every value is 0 or more (densities, albedos).
+    pub fn check_non_negative(&self) -> Result<(), GridError> {
+        match self.data.iter().position(|v| *v < 0.0) {
+            Some(i) => Err(self.value_error(i, self.data[i])),
+            None => Ok(()),
+        }
+    }
+
+    fn value_error(&self, i: usize, value: f32) -> GridError {
+        let voxel = i / self.channels as usize;
+        let (x, y) = (self.res[0] as usize, self.res[1] as usize);
+        GridError::Value {
+            voxel: [
+                (voxel % x) as u32,
+                (voxel / x % y) as u32,
+                (voxel / (x * y)) as u32,
+            ],
+            value,
+        }
+    }
+
+    /// The values, x fastest, then y, then z, channels interleaved.
+    pub fn values(&self) -> &[f32] {
+        &self.data
     }
 
     /// The largest value in the grid.

@@ -10,9 +10,10 @@
 //! <shape type="cube"><transform name="to_world"><scale value="0.5"/></transform></shape>
 //! ```
 //!
-//! Each face's uv spans [0, 1]²: on the face with outward normal ±e_a,
-//! u follows e_(a+1) and v follows ±e_(a+2), so that (u, v, n) is
-//! right-handed, as the mesh's counter-clockwise faces have it. A ray is
+//! Each face's uv spans [0, 1]², laid out as on Mitsuba 3's cube mesh
+//! (read from `mitsuba.load_dict({"type": "cube"})`, 3.9.1): u follows
+//! +y and v −z on the +x face, u +y and v +z on −x, u −x and v −z on
+//! +y, u +z and v +x on −y, u +y and v +x on +z, u −y and v +x on −z. A ray is
 //! intersected with the whole cube at once by the slab method (Kay &
 //! Kajiya 1986) in object space, where a mesh would test up to twelve
 //! triangles; rays starting inside leave through the far face. Area
@@ -54,30 +55,15 @@ struct CubeFace {
 }
 
 /// Per face (in [`face_code`] order), in object space: which coordinate
-/// is its axis, that coordinate (±1), and the axes of u and of v (v's
-/// with the face's sign: −e for the faces at −1).
+/// is its axis, that coordinate (±1), and the axes u and v follow
+/// (Mitsuba 3's cube mesh; see the module docs).
 const FACE_AXES: [([bool; 3], f32, Vec3, Vec3); 6] = [
-    (
-        [true, false, false],
-        -1.0,
-        Vec3::Y,
-        Vec3::new(-0.0, -0.0, -1.0),
-    ),
-    (
-        [false, true, false],
-        -1.0,
-        Vec3::Z,
-        Vec3::new(-1.0, -0.0, -0.0),
-    ),
-    (
-        [false, false, true],
-        -1.0,
-        Vec3::X,
-        Vec3::new(-0.0, -1.0, -0.0),
-    ),
-    ([true, false, false], 1.0, Vec3::Y, Vec3::Z),
-    ([false, true, false], 1.0, Vec3::Z, Vec3::X),
-    ([false, false, true], 1.0, Vec3::X, Vec3::Y),
+    ([true, false, false], -1.0, Vec3::Y, Vec3::Z),
+    ([false, true, false], -1.0, Vec3::Z, Vec3::X),
+    ([false, false, true], -1.0, Vec3::NEG_Y, Vec3::X),
+    ([true, false, false], 1.0, Vec3::Y, Vec3::NEG_Z),
+    ([false, true, false], 1.0, Vec3::NEG_X, Vec3::NEG_Z),
+    ([false, false, true], 1.0, Vec3::Y, Vec3::X),
 ];
 
 /// How far samples stay from a face's edges, in uv.
@@ -95,36 +81,18 @@ impl Cube {
         let column = |a: usize| to_world.vector(Vec3::AXES[a]);
         let face_areas: [f32; 3] =
             std::array::from_fn(|a| 4.0 * column(next(a)).cross(column(next(next(a)))).length());
-        let frames: [Frame; 3] = std::array::from_fn(|a| {
-            let n = super::world_normal(&to_world, Vec3::AXES[a], flip_normals);
-            Frame::from_normal_and_tangent(n, 2.0 * column(next(a)))
-        });
         let area = 2.0 * face_areas.iter().sum::<f32>();
-        // The face with outward normal +e_a has the frame `frames[a]`
-        // (after `flip_normals`); the −e_a face's is (s, −t, −n).
         let faces = std::array::from_fn(|code| {
             let (axis, positive) = face_of_code(code as f32);
-            let f: Frame = frames[axis];
-            let m = &to_world.m.matrix3;
-            let dpdu = 2.0 * Vec3::from(m.col(next(axis)));
-            let dpdv = 2.0 * Vec3::from(m.col(next(next(axis))));
-            if positive {
-                CubeFace {
-                    frame: f,
-                    dpdu,
-                    dpdv,
-                }
-            } else {
-                let frame = Frame {
-                    s: f.s,
-                    t: -f.t,
-                    n: -f.n,
-                };
-                CubeFace {
-                    frame,
-                    dpdu,
-                    dpdv: -dpdv,
-                }
+            let (_, side, u_axis, v_axis) = FACE_AXES[code];
+            let dpdu = 2.0 * to_world.vector(u_axis);
+            let dpdv = 2.0 * to_world.vector(v_axis);
+            let n = super::world_normal(&to_world, Vec3::AXES[axis] * side, flip_normals);
+            debug_assert_eq!(positive, side > 0.0);
+            CubeFace {
+                frame: Frame::from_normal_and_tangent(n, dpdu),
+                dpdu,
+                dpdv,
             }
         });
         Self {
@@ -323,11 +291,8 @@ impl ShapeModel for Cube {
         // Kept a hair off the edges, where a point rounds onto the
         // neighbouring face and a hit there would see that face's normal.
         let uv = Vec2::new(su, u.y).clamp(Vec2::splat(EDGE_INSET), Vec2::splat(1.0 - EDGE_INSET));
-        let mut q = Vec3::ZERO;
-        q[axis] = if positive { 1.0 } else { -1.0 };
-        q[next(axis)] = 2.0 * uv.x - 1.0;
-        let v = 2.0 * uv.y - 1.0;
-        q[next(next(axis))] = if positive { v } else { -v };
+        let (_, side, u_axis, v_axis) = FACE_AXES[face_code(axis, positive) as usize];
+        let q = Vec3::AXES[axis] * side + u_axis * (2.0 * uv.x - 1.0) + v_axis * (2.0 * uv.y - 1.0);
         PositionSample {
             p: self.to_world.point(q),
             n: self.face(axis, positive).frame.n,
@@ -343,34 +308,29 @@ pub fn cube_mesh() -> TriangleMesh {
     cube_mesh_with(false)
 }
 
-/// The cube as 12 triangles with per-face vertices (flat normals),
-/// optionally with flipped normals.
+/// The cube as 12 triangles with per-face vertices (flat normals, the
+/// uvs of [`FACE_AXES`]), optionally with flipped normals.
 pub fn cube_mesh_with(flip_normals: bool) -> TriangleMesh {
     let mut positions = Vec::with_capacity(24);
     let mut normals = Vec::with_capacity(24);
     let mut uvs = Vec::with_capacity(24);
     let mut indices = Vec::with_capacity(12);
-    for axis in 0..3 {
-        for sign in [-1.0f32, 1.0] {
-            let n = Vec3::from_array(std::array::from_fn(|i| if i == axis { sign } else { 0.0 }));
-            // Tangents chosen so that (s, t, n) is right-handed: faces wind
-            // counter-clockwise seen from outside.
-            let s = Vec3::from_array(std::array::from_fn(|i| {
-                if i == (axis + 1) % 3 {
-                    1.0
-                } else {
-                    0.0
-                }
-            }));
-            let t = n.cross(s);
-            let base = positions.len() as u32;
-            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                positions.push(n + s * a + t * b);
-                normals.push(n);
-                uvs.push(Vec2::new((a + 1.0) * 0.5, (b + 1.0) * 0.5));
-            }
+    for (on_axis, side, u_axis, v_axis) in FACE_AXES {
+        let axis = on_axis.iter().position(|a| *a).unwrap_or(0);
+        let n = Vec3::AXES[axis] * side;
+        let base = positions.len() as u32;
+        for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            positions.push(n + u_axis * a + v_axis * b);
+            normals.push(n);
+            uvs.push(Vec2::new((a + 1.0) * 0.5, (b + 1.0) * 0.5));
+        }
+        // Counter-clockwise seen from outside.
+        if u_axis.cross(v_axis).dot(n) > 0.0 {
             indices.push([base, base + 1, base + 2]);
             indices.push([base, base + 2, base + 3]);
+        } else {
+            indices.push([base, base + 2, base + 1]);
+            indices.push([base, base + 3, base + 2]);
         }
     }
     // Infallible: the indices above are in range by construction.
@@ -417,6 +377,50 @@ mod tests {
             (Transform::new(sheared).unwrap(), false),
             (Transform::new(rotated).unwrap(), true),
         ]
+    }
+
+    /// The uv at each corner of each face is that of Mitsuba 3.9.1's
+    /// cube mesh (its vertex positions, normals and texcoords, printed by
+    /// `mitsuba.load_dict({"type": "cube"})`).
+    #[test]
+    fn face_uvs_are_mitsubas() {
+        #[rustfmt::skip]
+        let mitsuba: [([f32; 3], [f32; 3], [f32; 2]); 24] = [
+            ([1., -1., -1.], [0., -1., 0.], [0., 1.]), ([1., -1., 1.], [0., -1., 0.], [1., 1.]),
+            ([-1., -1., 1.], [0., -1., 0.], [1., 0.]), ([-1., -1., -1.], [0., -1., 0.], [0., 0.]),
+            ([1., 1., -1.], [0., 1., 0.], [0., 1.]), ([-1., 1., -1.], [0., 1., 0.], [1., 1.]),
+            ([-1., 1., 1.], [0., 1., 0.], [1., 0.]), ([1., 1., 1.], [0., 1., 0.], [0., 0.]),
+            ([1., -1., -1.], [1., 0., 0.], [0., 1.]), ([1., 1., -1.], [1., 0., 0.], [1., 1.]),
+            ([1., 1., 1.], [1., 0., 0.], [1., 0.]), ([1., -1., 1.], [1., 0., 0.], [0., 0.]),
+            ([1., -1., 1.], [0., 0., 1.], [0., 1.]), ([1., 1., 1.], [0., 0., 1.], [1., 1.]),
+            ([-1., 1., 1.], [0., 0., 1.], [1., 0.]), ([-1., -1., 1.], [0., 0., 1.], [0., 0.]),
+            ([-1., -1., 1.], [-1., 0., 0.], [0., 1.]), ([-1., 1., 1.], [-1., 0., 0.], [1., 1.]),
+            ([-1., 1., -1.], [-1., 0., 0.], [1., 0.]), ([-1., -1., -1.], [-1., 0., 0.], [0., 0.]),
+            ([1., 1., -1.], [0., 0., -1.], [0., 1.]), ([1., -1., -1.], [0., 0., -1.], [1., 1.]),
+            ([-1., -1., -1.], [0., 0., -1.], [1., 0.]), ([-1., 1., -1.], [0., 0., -1.], [0., 0.]),
+        ];
+        let cube = Shape::Cube(Cube::new(Transform::IDENTITY, false));
+        for (p, n, uv) in mitsuba {
+            let (p, n) = (Vec3::from(p), Vec3::from(n));
+            // A point just inside the corner, hit straight along −n.
+            let inside = p - (p - n * n.dot(p)) * 1e-3;
+            let si = closest_hit(&cube, &[], &Ray::new(inside + n, -n)).unwrap();
+            assert!(
+                (si.uv - Vec2::from(uv)).length() < 1e-2,
+                "at {p} on {n}: {} for {uv:?}",
+                si.uv
+            );
+        }
+        // The mesh the cube becomes when it emits has the same uvs.
+        let mesh = cube_mesh();
+        for (p, n, uv) in mitsuba {
+            let found = (0..24).any(|i| {
+                mesh.positions[i] == Vec3::from(p)
+                    && mesh.normals[i] == Vec3::from(n)
+                    && mesh.uvs[i] == Vec2::from(uv)
+            });
+            assert!(found, "the mesh lacks the vertex {p:?} {n:?} {uv:?}");
+        }
     }
 
     /// Hits on the analytic cube are the mesh cube's: the same distance,

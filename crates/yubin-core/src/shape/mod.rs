@@ -21,6 +21,7 @@ mod mesh;
 mod rectangle;
 pub mod sdf;
 pub mod sdf_tree;
+pub mod sdfgrid;
 mod sphere;
 mod triangle;
 
@@ -35,6 +36,7 @@ pub use mesh::{MeshData, MeshShape, TriangleMesh};
 pub(crate) use rectangle::NearZone;
 pub use rectangle::Rectangle;
 pub use sdf::SdfShape;
+pub use sdfgrid::SdfGrid;
 pub use sphere::Sphere;
 pub(crate) use triangle::lane_tests_avx2;
 pub use triangle::{TrianglePackets, WatertightRay, PACKET};
@@ -95,6 +97,11 @@ pub const PLUGINS: &[(&str, ShapeFromParams)] = &[
     ("sdf", |p| {
         Ok(BuiltShape::Analytic(Shape::Sdf(SdfShape::from_params(p)?)))
     }),
+    ("sdfgrid", |p| {
+        Ok(BuiltShape::Analytic(Shape::SdfGrid(SdfGrid::from_params(
+            p,
+        )?)))
+    }),
     ("mandelbox", |p| {
         Ok(BuiltShape::Analytic(Shape::Sdf(
             SdfShape::mandelbox_from_params(p)?,
@@ -111,7 +118,8 @@ pub(crate) fn placement(p: &mut dyn Params) -> Result<(Transform, bool), ParamEr
 
 /// Builds the shape `p` describes, by its plugin type.
 pub fn from_params(p: &mut dyn Params) -> Result<BuiltShape, ParamError> {
-    let known = "obj, ply, serialized, cube, sphere, rectangle, disk, cylinder, sdf, mandelbox, \
+    let known =
+        "obj, ply, serialized, cube, sphere, rectangle, disk, cylinder, sdf, sdfgrid, mandelbox, \
                  shapegroup, instance";
     plugin_of(p, "shape", PLUGINS, Some(known))?(p)
 }
@@ -267,6 +275,8 @@ pub enum Shape {
     Cube(Cube),
     /// `sdf` and `mandelbox`: ray marched.
     Sdf(SdfShape),
+    /// `sdfgrid`: a sampled distance grid, one primitive per voxel.
+    SdfGrid(SdfGrid),
 }
 
 impl Shape {
@@ -289,7 +299,7 @@ impl Shape {
             Shape::Rectangle(r) => Some(r.intersect_packet(rays, t_max)),
             Shape::Disk(d) => Some(d.intersect_packet(rays, t_max)),
             Shape::Cube(c) => Some(c.intersect_packet(rays, t_max)),
-            Shape::Mesh(_) | Shape::Cylinder(_) | Shape::Sdf(_) => None,
+            Shape::Mesh(_) | Shape::Cylinder(_) | Shape::Sdf(_) | Shape::SdfGrid(_) => None,
         }
     }
 
@@ -320,7 +330,7 @@ impl Shape {
             }),
             Shape::Cube(c) => Shape::Cube(Cube::new(t.after(&c.to_world), c.flip_normals)),
             // Never an emitter, so never placed for light sampling.
-            Shape::Sdf(_) => return None,
+            Shape::Sdf(_) | Shape::SdfGrid(_) => return None,
         })
     }
 }
@@ -335,6 +345,7 @@ macro_rules! dispatch {
             Shape::Cylinder($s) => $e,
             Shape::Cube($s) => $e,
             Shape::Sdf($s) => $e,
+            Shape::SdfGrid($s) => $e,
         }
     };
 }
