@@ -158,6 +158,7 @@ pub(crate) mod tests {
                     color0: Tex::Const(Rgb::new(0.9, 0.5, 0.1)),
                     color1: Tex::value(0.2),
                     to_uv: glam::Affine2::IDENTITY,
+                    float_swapped: false,
                 },
             ));
             v

@@ -1160,6 +1160,7 @@ pub(crate) mod tests {
                 color0: Tex::value(0.0),
                 color1: Tex::value(0.0),
                 to_uv: glam::Affine2::IDENTITY,
+                float_swapped: false,
             },
         ));
         let mut p = MapParams::new()

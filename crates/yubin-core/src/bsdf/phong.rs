@@ -404,6 +404,7 @@ pub(crate) mod tests {
                         color0: Tex::Const(a),
                         color1: Tex::Const(b),
                         to_uv: glam::Affine2::IDENTITY,
+                        float_swapped: false,
                     },
                 ));
         }

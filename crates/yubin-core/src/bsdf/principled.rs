@@ -501,6 +501,7 @@ pub(crate) mod tests {
                     color0: Tex::Const(Rgb::new(0.9, 0.5, 0.1)),
                     color1: Tex::value(0.2),
                     to_uv: glam::Affine2::IDENTITY,
+                    float_swapped: false,
                 },
             ));
         let mut out = vec![
@@ -595,6 +596,7 @@ pub(crate) mod tests {
             color0: Tex::value(0.2),
             color1: Tex::value(0.9),
             to_uv: glam::Affine2::IDENTITY,
+            float_swapped: false,
         });
         let with = |ior| {
             let mut m = Materials::with_bsdfs(vec![Material::Principled(Principled {

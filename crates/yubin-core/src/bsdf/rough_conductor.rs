@@ -469,6 +469,7 @@ pub(crate) mod tests {
                     color0: Tex::value(0.05),
                     color1: Tex::value(0.6),
                     to_uv: glam::Affine2::IDENTITY,
+                    float_swapped: false,
                 },
             ));
         out.push(textured);

@@ -392,6 +392,7 @@ pub(crate) mod tests {
                 color0: a,
                 color1: b,
                 to_uv: glam::Affine2::IDENTITY,
+                float_swapped: false,
             })
         };
         let mut out = Vec::new();

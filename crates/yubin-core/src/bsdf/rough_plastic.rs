@@ -749,6 +749,7 @@ pub(crate) mod tests {
                 color0: Tex::value(0.1),
                 color1: Tex::value(0.5),
                 to_uv: glam::Affine2::IDENTITY,
+                float_swapped: false,
             },
         ));
         let mut b = RoughPlastic::new(MicrofacetType::Ggx, 0.3, Rgb::ONE, 1.5, false);
@@ -816,6 +817,7 @@ pub(crate) mod tests {
                     color0: Tex::Const(Rgb::new(0.9, 0.5, 0.1)),
                     color1: Tex::value(0.2),
                     to_uv: glam::Affine2::IDENTITY,
+                    float_swapped: false,
                 },
             ));
             let id = m.add_bsdf(Material::RoughPlastic(b)) as usize;

@@ -607,6 +607,7 @@ mod tests {
                 color0: Rgb::new(0.8, 0.2, 0.2).into(),
                 color1: Rgb::new(0.1, 0.6, 0.9).into(),
                 to_uv: glam::Affine2::from_scale(glam::Vec2::splat(5.0)),
+                float_swapped: false,
             },
         ));
         let checkered = b.add_bsdf(Material::Diffuse(Diffuse {

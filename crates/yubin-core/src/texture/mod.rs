@@ -25,6 +25,7 @@ mod mix;
 pub mod noise;
 mod normal_deviation;
 mod perlin;
+mod rawconstant;
 mod scale;
 
 pub use bitmap::{Bitmap, FilterType, WrapMode};
@@ -39,6 +40,7 @@ pub use mix::Mix;
 pub use noise::{NoiseMap, NoiseSpace};
 pub use normal_deviation::NormalDeviation;
 pub use perlin::Perlin;
+pub use rawconstant::RawConstant;
 pub use scale::Scale;
 
 use crate::interaction::SurfaceInteraction;
@@ -82,6 +84,8 @@ pub enum Texture {
     Perlin(Perlin),
     /// `scale`.
     Scale(Scale),
+    /// `rawconstant`.
+    RawConstant(RawConstant),
 }
 
 macro_rules! dispatch {
@@ -96,6 +100,7 @@ macro_rules! dispatch {
             Texture::NormalDeviation($t) => $e,
             Texture::Perlin($t) => $e,
             Texture::Scale($t) => $e,
+            Texture::RawConstant($t) => $e,
         }
     };
 }
@@ -248,5 +253,8 @@ pub const PLUGINS: &[(&str, TextureFromParams)] = &[
         Ok(Texture::NormalDeviation(NormalDeviation::from_params(p)?))
     }),
     ("perlin", |p| Ok(Texture::Perlin(Perlin::from_params(p)?))),
+    ("rawconstant", |p| {
+        Ok(Texture::RawConstant(RawConstant::from_params(p)?))
+    }),
     ("scale", |p| Ok(Texture::Scale(Scale::from_params(p)?))),
 ];

@@ -168,6 +168,7 @@ mod tests {
             color0: Tex::value(0.9),
             color1: Tex::value(0.3),
             to_uv: glam::Affine2::IDENTITY,
+            float_swapped: false,
         }));
         let mut u = uniform(9);
         for space in ["world", "uv"] {

@@ -4,6 +4,7 @@
 //! | parameter | type            | default | meaning        |
 //! |-----------|-----------------|---------|----------------|
 //! | `value`   | float/rgb/spectrum | 1    | the value      |
+//! | `to_world` | transform      | identity | accepted, as Mitsuba does; a constant is the same anywhere |
 //!
 //! ```xml
 //! <volume type="constvolume" name="albedo"><rgb name="value" value="0.9, 0.5, 0.2"/></volume>
@@ -15,6 +16,7 @@ use crate::Rgb;
 
 /// Builds the volume from its scene parameters.
 pub(super) fn from_params(p: &mut dyn Params) -> Result<Volume, ParamError> {
+    p.transform("to_world")?;
     Ok(Volume::Const(p.color_or(
         "value",
         ColorKind::Unbounded,

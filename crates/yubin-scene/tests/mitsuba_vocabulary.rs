@@ -1,0 +1,108 @@
+//! Parts of Mitsuba 3's scene vocabulary that its own test scenes use:
+//! `rawconstant` as a texture, `to_world` on `constvolume`, and the
+//! `checkerboard` read as a float with Mitsuba's colours swapped (and
+//! yubin's `consistent_float` reading).
+
+use std::path::Path;
+use yubin_core::render::{render, RenderSettings};
+use yubin_scene::load_scene_str;
+
+fn scene(body: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+<integrator type="path"><integer name="max_depth" value="3"/></integrator>
+<sensor type="perspective"><float name="fov" value="40"/>
+  <transform name="to_world"><lookat origin="0, -4, 3" target="0, 0, 0" up="0, 0, 1"/></transform>
+  <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="16"/></film>
+</sensor>
+<emitter type="constant"><rgb name="radiance" value="0.5"/></emitter>
+<emitter type="point"><point name="position" value="1, -2, 3"/><rgb name="intensity" value="10"/></emitter>
+{body}
+</scene>"#
+    )
+}
+
+fn image(body: &str) -> Vec<f32> {
+    let loaded =
+        load_scene_str(&scene(body), Path::new("test.xml"), &[]).unwrap_or_else(|e| panic!("{e}"));
+    render(
+        &loaded.scene,
+        loaded.integrator.as_ref(),
+        &RenderSettings { spp: 4, seed: 3 },
+        &|_| {},
+    )
+    .image
+    .data
+}
+
+const SPHERE: &str = r#"<shape type="sphere">BSDF</shape>"#;
+
+fn with_bsdf(bsdf: &str) -> String {
+    SPHERE.replace("BSDF", bsdf)
+}
+
+#[test]
+fn rawconstant_textures_give_their_values() {
+    // A constant roughness given raw equals the plain float.
+    let raw = image(&with_bsdf(
+        r#"<bsdf type="roughconductor"><texture type="rawconstant" name="alpha"><float name="value" value="0.3"/></texture></bsdf>"#,
+    ));
+    let plain = image(&with_bsdf(
+        r#"<bsdf type="roughconductor"><float name="alpha" value="0.3"/></bsdf>"#,
+    ));
+    let close = raw
+        .iter()
+        .zip(&plain)
+        .all(|(a, b)| (a - b).abs() <= 1e-5 * (1.0 + b.abs()));
+    assert!(close, "rawconstant alpha differs from the float");
+    // A flat normal map given as a raw vector changes nothing; a tilted
+    // one does.
+    let flat = image(&with_bsdf(
+        r#"<bsdf type="normalmap"><texture type="rawconstant" name="normalmap"><vector name="value" value="0.5, 0.5, 1"/></texture><bsdf type="diffuse"/></bsdf>"#,
+    ));
+    let tilted = image(&with_bsdf(
+        r#"<bsdf type="normalmap"><texture type="rawconstant" name="normalmap"><vector name="value" value="0.9, 0.5, 0.7"/></texture><bsdf type="diffuse"/></bsdf>"#,
+    ));
+    let bare = image(&with_bsdf(r#"<bsdf type="diffuse"/>"#));
+    let diff = |a: &[f32], b: &[f32]| {
+        a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum::<f32>() / a.len() as f32
+    };
+    assert!(diff(&flat, &bare) < 1e-4, "{}", diff(&flat, &bare));
+    assert!(diff(&tilted, &bare) > 1e-2, "{}", diff(&tilted, &bare));
+}
+
+#[test]
+fn constvolume_accepts_to_world() {
+    image(
+        r#"<medium type="homogeneous" id="fog">
+             <volume type="constvolume" name="albedo"><rgb name="value" value="0.5"/>
+               <transform name="to_world"><scale value="2"/></transform></volume>
+           </medium>
+           <shape type="sphere"><ref name="interior" id="fog"/><bsdf type="null"/></shape>"#,
+    );
+}
+
+/// Mitsuba 3 reads a checkerboard's `color1` where its colour reading
+/// gives `color0` when the checkerboard is a float: a blend weight
+/// checkered (0.2, 0.9) renders as yubin's consistent reading of
+/// (0.9, 0.2), bit for bit, and not as its consistent reading of
+/// (0.2, 0.9).
+#[test]
+fn checkerboard_as_a_float_swaps_its_colours_as_mitsuba_does() {
+    let blend = |c0: f32, c1: f32, consistent: bool| {
+        image(&with_bsdf(&format!(
+            r#"<bsdf type="blendbsdf">
+                 <texture type="checkerboard" name="weight">
+                   <float name="color0" value="{c0}"/><float name="color1" value="{c1}"/>
+                   <boolean name="consistent_float" value="{consistent}"/>
+                   <transform name="to_uv"><scale value="4"/></transform>
+                 </texture>
+                 <bsdf type="diffuse"><rgb name="reflectance" value="0.9, 0.1, 0.1"/></bsdf>
+                 <bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.1, 0.9"/></bsdf>
+               </bsdf>"#
+        )))
+    };
+    let mitsuba = blend(0.2, 0.9, false);
+    assert_eq!(mitsuba, blend(0.9, 0.2, true));
+    assert_ne!(mitsuba, blend(0.2, 0.9, true));
+}
