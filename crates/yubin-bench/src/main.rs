@@ -17,6 +17,9 @@
 //! - [`suite`]: time to equal error against Mitsuba 3 on a suite of
 //!   scenes, with load time and peak memory.
 //! - [`smoke`]: writes the procedural smoke plume grid of `scenes/smoke.xml`.
+//! - [`sdf`]: ray-marching cost (evaluations per ray, marches per second)
+//!   of a scene's `sdf` and `mandelbox` shapes, with and without their
+//!   step factors.
 //! - [`envmap`]: time to build a 4096 × 2048 environment map's sampling
 //!   distribution.
 //! - [`rays`]: ray-traversal throughput, build time and memory of yubin's
@@ -31,6 +34,7 @@ mod manylights;
 mod media;
 mod rays;
 mod samplers;
+mod sdf;
 mod smoke;
 mod suite;
 
@@ -45,6 +49,7 @@ const USAGE: &str = "usage:
   yubin-bench cornell [--spp N] [--scene PATH] [--skip-mitsuba]
   yubin-bench manylights [--spp N] [--ref-spp N] [--res N]
   yubin-bench envmap [--reps N]
+  yubin-bench sdf [--scene PATH] [-D name=value]...
   yubin-bench samplers [--reps N]
   yubin-bench smoke-vol PATH [--res X,Y,Z]
   yubin-bench media [--spp N] [--ref-spp N] [--reps N]
@@ -67,6 +72,7 @@ fn main() -> Result<()> {
         Some("rays") => rays::run(&args[1..]),
         Some("manylights") => manylights::run(&args[1..]),
         Some("envmap") => envmap::run(&args[1..]),
+        Some("sdf") => sdf::run(&args[1..]),
         Some("samplers") => samplers::run(&args[1..]),
         Some("smoke-vol") => smoke::run(&args[1..]),
         Some("media") => media::run(&args[1..]),
