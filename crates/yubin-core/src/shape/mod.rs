@@ -151,6 +151,17 @@ pub struct PositionSample {
     pub uv: Vec2,
 }
 
+impl PositionSample {
+    /// No sample (density 0): what shapes without area sampling (the
+    /// ray-marched ones, which carry no emitter) answer.
+    pub const NONE: Self = Self {
+        p: Vec3::ZERO,
+        n: Vec3::Z,
+        pdf: 0.0,
+        uv: Vec2::ZERO,
+    };
+}
+
 /// A point sampled on a shape as seen from a reference point, with the
 /// density per solid angle at the reference point.
 #[derive(Clone, Copy, Debug)]

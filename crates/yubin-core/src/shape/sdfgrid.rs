@@ -500,12 +500,7 @@ impl ShapeModel for SdfGrid {
     }
 
     fn sample_position(&self, _: &[TriangleMesh], _: Vec2) -> PositionSample {
-        PositionSample {
-            p: Vec3::ZERO,
-            n: Vec3::Z,
-            pdf: 0.0,
-            uv: Vec2::ZERO,
-        }
+        PositionSample::NONE
     }
 }
 
