@@ -191,3 +191,44 @@ fn bad_sdf_trees_are_refused_with_their_line() {
         11,
     );
 }
+
+/// A nested node's parameter is editable like any other: the edited scene
+/// renders, bit for bit, what loading the edited file renders.
+#[test]
+fn sdf_parameters_are_editable() {
+    use yubin_core::params::ParamValue;
+    let file = |r: &str| {
+        scene(
+            PATH,
+            &format!(
+                r#"<shape type="sdf" id="blob"><sdf type="smooth_union"><float name="k" value="0.2"/>
+                     <sdf type="sphere"><float name="radius" value="{r}"/></sdf>
+                     <sdf type="box"><vector name="half_size" value="0.3, 0.3, 1"/></sdf></sdf><ref id="red"/></shape>"#
+            ),
+        )
+    };
+    let mut loaded = load_scene_str(&file("0.6"), Path::new("test.xml"), &[]).unwrap();
+    let key = loaded
+        .scene
+        .parameters()
+        .into_iter()
+        .map(|p| p.key)
+        .find(|k| k.starts_with("blob.") && k.ends_with(".radius"))
+        .expect("the sphere's radius is listed");
+    loaded.scene.update(&key, ParamValue::Float(0.8)).unwrap();
+    let edited = render(
+        &loaded.scene,
+        loaded.integrator.as_ref(),
+        &RenderSettings { spp: 4, seed: 1 },
+        &|_| {},
+    );
+    let (fresh, _) = render_rgb(&file("0.8"), 4, 1);
+    let edited: Vec<f32> = edited
+        .image
+        .data
+        .chunks_exact(edited.image.channels)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect();
+    assert_eq!(edited, fresh, "{key}");
+    assert!(loaded.scene.update(&key, ParamValue::Float(-1.0)).is_err());
+}
