@@ -27,8 +27,8 @@
 //! Each iteration folds z = clamp(z, −L, L)·2 − z (box fold), then
 //! scales it by (fixed/min)² inside the minimum radius or inverts it in
 //! the fixed sphere between the two (sphere fold), then z = scale·z + p.
-//! The running derivative dr follows the same scalings (dr = dr·|scale|
-//! + 1), and the estimate is |z| / |dr| (Hart, Sandin and Kauffman 1989,
+//! The running derivative dr follows the same scalings
+//! (dr ← dr·|scale| + 1), and the estimate is |z| / |dr| (Hart, Sandin and Kauffman 1989,
 //! "Ray tracing deterministic 3-D fractals"; the Mandelbox form as
 //! explained by Christensen, "Distance estimated 3D fractals VI: the
 //! Mandelbox", 2011). Iteration stops once |z|² exceeds 10⁶, where the
