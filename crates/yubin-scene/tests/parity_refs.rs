@@ -69,9 +69,8 @@ fn parity_envmap_bitmap() {
 
 /// Every `principled` and `principledthin` parameter, constant and
 /// textured, on 18 spheres under a constant environment and an area light
-/// (8 bounces, box filter). The reference is rendered from
-/// `principled_mitsuba.xml`, the same scene with the float checkerboards'
-/// colours exchanged for Mitsuba 3.9.1's `eval_1` swap.
+/// (8 bounces, box filter). Its float checkerboards are read with
+/// Mitsuba 3.9.1's `eval_1` colour swap in both renderers.
 #[test]
 fn parity_principled() {
     parity("principled");
