@@ -59,8 +59,10 @@ pub(super) fn from_params(p: &mut dyn Params) -> Result<Volume, ParamError> {
     let Some(grid) = p.grid_file("filename")? else {
         return Err(p.error("needs a \"filename\""));
     };
-    grid.check_non_negative()
-        .map_err(|e| p.param_error("filename", &e.to_string()))?;
+    if let Err(e) = grid.check_non_negative() {
+        let file = p.string("filename")?.unwrap_or_default();
+        return Err(p.param_error("filename", &format!("{file}: {e}")));
+    }
     let use_grid_bbox = p.boolean_or("use_grid_bbox", false)?;
     let nearest = p.choice("filter_type", &["trilinear", "nearest"])? == 1;
     let wrap = match p.choice("wrap_mode", &["clamp", "repeat", "mirror"])? {
