@@ -39,9 +39,12 @@ fn example_scenes_load_and_render() {
 fn load(name: &str, texture: &str) -> Result<LoadedScene, String> {
     let xml = format!(
         r#"<scene version="3.0.0">
+    <!-- Read as a float with its colour's pattern (yubin's reading, not
+         Mitsuba's swap), so that a texture's colour and value agree. -->
     <texture type="checkerboard" id="checks">
         <rgb name="color0" value="0.8"/>
         <rgb name="color1" value="0.2"/>
+        <boolean name="consistent_float" value="true"/>
     </texture>
     <shape type="rectangle">
         <bsdf type="diffuse">
