@@ -30,6 +30,8 @@
 //! | `gr.node(name)` | a transform node |
 //! | `gr.sphere(name)`, `gr.cube(name)` | the unit sphere at the origin, the cube [0, 1]³ (CS488's) |
 //! | `gr.mesh(name, path)` | an OBJ or PLY mesh |
+//! | `gr.sdf(name, tree, options)` | a ray-marched `sdf` shape: `tree` is a node table `{type = "smooth_union", k = 0.1, {type = "sphere", radius = 0.5}, {type = "box", half_size = {1, 1, 1}}}` (the XML `<sdf>` types and parameters by name, children in the array part, and optional `scale`, `rotate = {axis, degrees}`, `translate` per node); `options` the shape's own (`step_factor`, `bbox_min`, ...) |
+//! | `gr.mandelbox(name, options)` | the `mandelbox` shape (`scale`, `iterations`, ..., and the marching options) |
 //! | `gr.load(path)` | a glTF model (`.gltf`, `.glb`) as a node, or a Mitsuba XML scene's shapes and emitters (at the top level only) |
 //! | `node:translate(x, y, z)`, `node:rotate(axis, degrees)`, `node:scale(x, y, z)` | transforms applied after the node's earlier ones (`axis` `'x'`, `'y'` or `'z'`) |
 //! | `node:add_child(child)`, `node:set_material(m)` | the hierarchy; a node without material wears its parent's |
@@ -282,6 +284,123 @@ impl Ctx {
             used: Cell::new(false),
         }
     }
+
+    /// Where the script calls the running `gr` function: its line, so
+    /// that the builder's errors about what it made name that line.
+    fn call_site(&self, lua: &Lua) -> Location {
+        let line = lua
+            .inspect_stack(1)
+            .map_or(0, |d| d.curr_line().max(0) as u32);
+        Location::new(self.loc.file.clone(), line)
+    }
+
+    /// The string-keyed entries of `t` as parameters: integers, numbers,
+    /// booleans, strings and `{x, y, z}` (a vector). `skip` names keys
+    /// read elsewhere.
+    fn props_of(
+        &self,
+        lua: &Lua,
+        t: &Table,
+        what: &str,
+        skip: &[&str],
+    ) -> mlua::Result<Vec<Property>> {
+        let loc = self.call_site(lua);
+        let mut props = Vec::new();
+        for pair in t.pairs::<LuaValue, LuaValue>() {
+            let (key, value) = pair?;
+            let LuaValue::String(key) = key else {
+                continue;
+            };
+            let key = key.to_str()?.to_string();
+            if skip.contains(&key.as_str()) {
+                continue;
+            }
+            let value = match value {
+                LuaValue::Integer(i) => Value::Integer(i),
+                LuaValue::Number(x) => Value::Float(x),
+                LuaValue::Boolean(b) => Value::Boolean(b),
+                LuaValue::String(v) => Value::String(v.to_str()?.to_string()),
+                LuaValue::Table(v) => {
+                    Value::Vector(vec3(lua, &v, &format!("{what} {key}"))?.as_vec3())
+                }
+                other => {
+                    return Err(fail(
+                        lua,
+                        format!("{what}: {key} cannot be a {}", other.type_name()),
+                    ))
+                }
+            };
+            let mut p = self.prop(&key, value);
+            p.loc = loc.clone();
+            props.push(p);
+        }
+        // Table order is unspecified: sorted, so descriptions compare.
+        props.sort_by(|a, b| a.name.cmp(&b.name));
+        Ok(props)
+    }
+
+    fn plain_props(&self, lua: &Lua, t: &Table, what: &str) -> mlua::Result<Vec<Property>> {
+        self.props_of(lua, t, what, &[])
+    }
+
+    /// An `<sdf>` node from a table: `type`, its parameters, optional
+    /// `scale` (a number or `{x, y, z}`), `rotate` (`{axis, degrees}`) and
+    /// `translate` (`{x, y, z}`), applied in that order, and its children
+    /// in the table's array part.
+    fn sdf_node(&self, lua: &Lua, t: &Table, depth: usize) -> mlua::Result<Rc<Object>> {
+        if depth > yubin_core::shape::sdf_tree::MAX_DEPTH {
+            return Err(fail(lua, "gr.sdf: nodes nest too deep"));
+        }
+        let kind: String = t
+            .get::<Option<String>>("type")?
+            .ok_or_else(|| fail(lua, "gr.sdf: every node needs a type"))?;
+        let mut props =
+            self.props_of(lua, t, "gr.sdf", &["type", "scale", "rotate", "translate"])?;
+        let mut m = DMat4::IDENTITY;
+        match t.get::<LuaValue>("scale")? {
+            LuaValue::Nil => {}
+            LuaValue::Integer(i) => m = DMat4::from_scale(DVec3::splat(i as f64)),
+            LuaValue::Number(x) => m = DMat4::from_scale(DVec3::splat(x)),
+            LuaValue::Table(v) => m = DMat4::from_scale(vec3(lua, &v, "gr.sdf scale")?),
+            _ => return Err(fail(lua, "gr.sdf: scale is a number or {x, y, z}")),
+        }
+        if let Some(r) = t.get::<Option<Table>>("rotate")? {
+            let axis: String = r.get(1)?;
+            let degrees: f64 = r.get(2)?;
+            let axis = match axis.as_str() {
+                "x" | "X" => DVec3::X,
+                "y" | "Y" => DVec3::Y,
+                "z" | "Z" => DVec3::Z,
+                _ => return Err(fail(lua, "gr.sdf: rotate = {'x'|'y'|'z', degrees}")),
+            };
+            m = DMat4::from_axis_angle(axis, degrees.to_radians()) * m;
+        }
+        if let Some(v) = t.get::<Option<Table>>("translate")? {
+            m = DMat4::from_translation(vec3(lua, &v, "gr.sdf translate")?) * m;
+        }
+        let loc = self.call_site(lua);
+        if m != DMat4::IDENTITY {
+            let mut p = self.prop("to_world", Value::Transform(m));
+            p.loc = loc.clone();
+            props.push(p);
+        }
+        let mut o = Object::new(Category::Sdf, &kind, loc);
+        o.props = props;
+        for child in t.sequence_values::<Table>() {
+            let node = self.sdf_node(lua, &child?, depth + 1)?;
+            o.children.push(self.child(None, node));
+        }
+        Ok(Rc::new(o))
+    }
+}
+
+/// `{x, y, z}` as a vector.
+fn vec3(lua: &Lua, t: &Table, what: &str) -> mlua::Result<DVec3> {
+    let get = |i| t.get::<f64>(i);
+    match (get(1), get(2), get(3), t.raw_len()) {
+        (Ok(x), Ok(y), Ok(z), 3) => Ok(DVec3::new(x, y, z)),
+        _ => Err(fail(lua, format!("{what}: expects {{x, y, z}}"))),
+    }
 }
 
 /// A texture or constant value (`gr.const`, `gr.image`).
@@ -321,6 +440,9 @@ enum Geometry {
     Gltf(PathBuf),
     /// A Mitsuba XML scene's shapes and emitters, and its directory.
     Xml(Vec<Rc<Object>>, PathBuf),
+    /// A ray-marched shape (`sdf` or `mandelbox`): its type, its own
+    /// parameters and its nested `<sdf>` nodes.
+    Marched(&'static str, Vec<Property>, Vec<Rc<Object>>),
 }
 
 #[derive(Debug)]
@@ -580,6 +702,33 @@ fn install_gr(lua: &Lua, ctx: &Rc<Ctx>) -> mlua::Result<()> {
     gr.set(
         "cube",
         lua.create_function(|_, _name: Option<String>| Ok(Node::new(Geometry::Cube)))?,
+    )?;
+    let c = ctx.clone();
+    gr.set(
+        "sdf",
+        lua.create_function(
+            move |lua, (_name, tree, options): (Option<String>, Table, Option<Table>)| {
+                let node = c.sdf_node(lua, &tree, 0)?;
+                let props = match options {
+                    Some(t) => c.plain_props(lua, &t, "gr.sdf")?,
+                    None => Vec::new(),
+                };
+                Ok(Node::new(Geometry::Marched("sdf", props, vec![node])))
+            },
+        )?,
+    )?;
+    let c = ctx.clone();
+    gr.set(
+        "mandelbox",
+        lua.create_function(
+            move |lua, (_name, options): (Option<String>, Option<Table>)| {
+                let props = match options {
+                    Some(t) => c.plain_props(lua, &t, "gr.mandelbox")?,
+                    None => Vec::new(),
+                };
+                Ok(Node::new(Geometry::Marched("mandelbox", props, vec![])))
+            },
+        )?,
     )?;
     let c = ctx.clone();
     gr.set(
@@ -853,10 +1002,12 @@ fn node_shapes(
     let d = node.0.borrow();
     let m = parent * d.transform;
     let material = d.material.as_ref().or(inherited);
-    let shape = |kind: &str, to_world: DMat4, extra: Vec<Property>| {
+    let shape = |kind: &str, to_world: DMat4, extra: Vec<Property>, nested: &[Rc<Object>]| {
         let mut props = vec![ctx.prop("to_world", Value::Transform(to_world))];
         props.extend(extra);
         let mut o = ctx.object(Category::Shape, kind, props);
+        o.children
+            .extend(nested.iter().map(|n| ctx.child(None, n.clone())));
         if let Some(mat) = material {
             o.children.push(ctx.child(None, mat.bsdf.clone()));
             if let Some(e) = &mat.emission {
@@ -878,19 +1029,20 @@ fn node_shapes(
         |p: &Path| ctx.prop("filename", Value::String(p.to_string_lossy().into_owned()));
     match &d.geometry {
         Geometry::None => {}
-        Geometry::Sphere => walk.out.push(shape("sphere", m, vec![])),
+        Geometry::Sphere => walk.out.push(shape("sphere", m, vec![], &[])),
         // CS488's cube is [0, 1]³; Mitsuba's [−1, 1]³.
         Geometry::Cube => walk.out.push(shape(
             "cube",
             m * DMat4::from_translation(DVec3::splat(0.5)) * DMat4::from_scale(DVec3::splat(0.5)),
             vec![],
+            &[],
         )),
         Geometry::Mesh(p) => {
             let kind = match p.extension().and_then(|e| e.to_str()) {
                 Some(e) if e.eq_ignore_ascii_case("ply") => "ply",
                 _ => "obj",
             };
-            walk.out.push(shape(kind, m, vec![path_prop(p)]));
+            walk.out.push(shape(kind, m, vec![path_prop(p)], &[]));
         }
         Geometry::Gltf(p) => {
             let o = ctx.object(
@@ -899,6 +1051,9 @@ fn node_shapes(
                 vec![path_prop(p), ctx.prop("to_world", Value::Transform(m))],
             );
             walk.out.push(Rc::new(o));
+        }
+        Geometry::Marched(kind, props, nodes) => {
+            walk.out.push(shape(kind, m, props.clone(), nodes));
         }
         Geometry::Xml(objects, dir) => {
             // Its shapes and emitters, where the XML put them.

@@ -200,3 +200,73 @@ fn gr_load_brings_an_xml_scenes_shapes() {
         "the loaded light is not seen"
     );
 }
+
+/// `gr.sdf` and `gr.mandelbox` describe what `<shape type="sdf">` and
+/// `<shape type="mandelbox">` do: the same image bit for bit; a bad node
+/// is refused at the script's line.
+#[test]
+fn sdf_shapes_in_lua_render_as_in_xml() {
+    let dir = scratch("sdf");
+    let script = dir.join("scene.lua");
+    let lua_text = r#"grey = gr.material({albedo = gr.const(0.5), roughness = 0.75})
+root = gr.node("root")
+blob = gr.sdf("blob", {type = "smooth_union", k = 0.25,
+  {type = "sphere", radius = 0.75},
+  {type = "box", half_size = {0.5, 0.5, 0.5}, rotate = {'y', 45}, translate = {0.75, 0, 0}}},
+  {step_factor = 0.875})
+blob:set_material(grey)
+root:add_child(blob)
+fractal = gr.mandelbox("fractal", {scale = -1.5, iterations = 6})
+fractal:scale(0.25, 0.25, 0.25)
+fractal:translate(-1.5, 0.5, 0)
+fractal:set_material(grey)
+root:add_child(fractal)
+cam = gr.camera{eye = {0, 1, 6}, target = {0, 0, 0}, up = {0, 1, 0}, fov = 40}
+gr.render{scene = root, width = 32, height = 24, spp = 8, camera = cam,
+  lights = {gr.light({4, 6, 4}, {60, 60, 60})}, ambient = {0.125, 0.125, 0.125}}
+"#;
+    std::fs::write(&script, lua_text).unwrap();
+    let (lua, _) = load_lua(&script, &LuaOptions::default()).expect("the script runs");
+    let xml = r#"<scene version="3.0.0">
+    <integrator type="path"/>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <string name="fov_axis" value="y"/>
+        <transform name="to_world"><lookat origin="0,1,6" target="0,0,0" up="0,1,0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/></film>
+        <sampler type="independent"><integer name="sample_count" value="8"/></sampler>
+    </sensor>
+    <emitter type="point"><point name="position" x="4" y="6" z="4"/><rgb name="intensity" value="60"/></emitter>
+    <emitter type="constant"><rgb name="radiance" value="0.125"/></emitter>
+    <bsdf type="principled" id="grey"><rgb name="base_color" value="0.5"/><float name="roughness" value="0.75"/></bsdf>
+    <shape type="sdf">
+        <float name="step_factor" value="0.875"/>
+        <sdf type="smooth_union"><float name="k" value="0.25"/>
+            <sdf type="sphere"><float name="radius" value="0.75"/></sdf>
+            <sdf type="box"><vector name="half_size" value="0.5, 0.5, 0.5"/>
+                <transform name="to_world"><rotate y="1" angle="45"/><translate x="0.75"/></transform></sdf>
+        </sdf>
+        <ref id="grey"/>
+    </shape>
+    <shape type="mandelbox">
+        <float name="scale" value="-1.5"/><integer name="iterations" value="6"/>
+        <transform name="to_world"><scale value="0.25"/><translate x="-1.5" y="0.5"/></transform>
+        <ref id="grey"/>
+    </shape>
+</scene>"#;
+    let xml = load_scene_str(xml, &dir.join("scene.xml"), &[]).expect("the XML loads");
+    let (a, b) = (image(&lua), image(&xml));
+    assert!(
+        a.iter().any(|&v| v > 0.0),
+        "the script's scene renders black"
+    );
+    assert!(a == b, "the script and the XML render differently");
+    let bad = error_of(
+        "sdfbad",
+        "root = gr.node('r')\ns = gr.sdf('s', {type = 'union',\n  {type = 'blob'}, {type = 'sphere'}})\nroot:add_child(s)\ngr.render{scene = root}\n",
+    );
+    assert!(
+        bad.contains("scene.lua:2") && bad.contains("unknown sdf type \"blob\""),
+        "{bad}"
+    );
+}
