@@ -232,3 +232,23 @@ fn sdf_parameters_are_editable() {
     assert_eq!(edited, fresh, "{key}");
     assert!(loaded.scene.update(&key, ParamValue::Float(-1.0)).is_err());
 }
+
+/// The showcase scene loads and renders (small): finite, not black.
+#[test]
+fn showcase_scene_renders() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/implicit/sculpture.xml");
+    let defines: Vec<(String, String)> = [("resx", "24"), ("resy", "16"), ("spp", "2")]
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    let loaded = yubin_scene::load_scene(&path, &defines).unwrap_or_else(|e| panic!("{e}"));
+    let out = render(
+        &loaded.scene,
+        loaded.integrator.as_ref(),
+        &RenderSettings { spp: 2, seed: 1 },
+        &|_| {},
+    );
+    let data = &out.image.data;
+    assert!(data.iter().all(|v| v.is_finite()));
+    assert!(data.iter().sum::<f32>() / data.len() as f32 > 0.05);
+}
