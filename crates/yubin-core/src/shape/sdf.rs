@@ -179,11 +179,17 @@ impl SdfShape {
             let f = f * sign;
             let threshold = (self.epsilon * t * speed).max(floor);
             if f < threshold {
-                let hit = t > ray.t_min && t < ray.t_max;
-                return March {
-                    t: hit.then_some(t),
-                    steps: step + 1,
-                };
+                if t > ray.t_min {
+                    return March {
+                        t: (t < ray.t_max).then_some(t),
+                        steps: step + 1,
+                    };
+                }
+                // A ray that starts on the surface: stepped past it, its
+                // side found again.
+                t += 2.0 * threshold / speed;
+                sign = 0.0;
+                continue;
             }
             t += self.step_factor * f / speed;
             if t > t1 {
@@ -358,6 +364,22 @@ mod tests {
         assert!(dpdu.dot(n).abs() < 1e-6 && dpdv.dot(n).abs() < 1e-6);
         // y dominant: u follows z, v follows x.
         assert!((dpdu.z - 0.5).abs() < 1e-6 && (dpdv.x - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_ray_starting_on_the_surface_passes_it() {
+        let s = shape(SdfTree::single(Node::Sphere {
+            center: Vec3::ZERO,
+            radius: 1.0,
+        }));
+        let on = Vec3::new(1.0, 0.0, 0.0);
+        let mut out = Ray::new(on, Vec3::X);
+        out.t_min = 1e-7;
+        assert_eq!(s.march(&out).t, None);
+        let mut through = Ray::new(on, -Vec3::X);
+        through.t_min = 1e-7;
+        let t = s.march(&through).t.unwrap();
+        assert!((t - 2.0).abs() < 1e-3, "{t}");
     }
 
     #[test]
