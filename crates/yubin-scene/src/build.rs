@@ -86,6 +86,7 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         ids: all_ids(&desc.root),
         parents: Vec::new(),
         object_keys: HashMap::new(),
+        worlds: HashMap::new(),
     };
     let root = &desc.root;
     let integrator = match root.single_child(Category::Integrator)? {
@@ -112,10 +113,27 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
             )));
         }
     }
+    // Worlds first, so that a portal may name one declared after it.
+    for child in root
+        .children
+        .iter()
+        .filter(|c| c.object.category == Category::World)
+    {
+        let obj = &child.object;
+        let Some(id) = obj.id.clone() else {
+            return Err(obj.error("a <world> needs an id (portals name it)"));
+        };
+        let w = b.sb.add_world();
+        b.worlds.insert(id, w);
+    }
     for child in &root.children {
         let obj = &child.object;
         match obj.category {
             Category::Integrator | Category::Sensor => {}
+            Category::World => {
+                child.used.set(true);
+                b.world(obj)?;
+            }
             Category::Bsdf => {
                 child.used.set(true);
                 b.bsdf(obj)?;
@@ -126,7 +144,7 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
             }
             Category::Emitter => {
                 child.used.set(true);
-                b.emitter(obj)?;
+                b.emitter(obj, 0)?;
             }
             // Built (and checked) even when nothing refers to it.
             Category::Medium if obj.id.is_some() => {
@@ -168,6 +186,16 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         }
     }
     root.check_unused_tree()?;
+    if b.sb.has_portals() {
+        let kind = root
+            .single_child(Category::Integrator)?
+            .map_or("path".to_string(), |c| c.object.plugin_type.clone());
+        if kind != "path" {
+            return Err(root.error(format!(
+                "portals are rendered by the path integrator (this scene's is \"{kind}\")"
+            )));
+        }
+    }
     b.sb.uv_unread_by_integrator(!integrator.reads_uv());
     let scene =
         b.sb.build()
@@ -233,6 +261,8 @@ pub(crate) struct Builder<'a> {
     parents: Vec<String>,
     /// Every object's key, by address ([`LoadedScene::object_keys`]).
     object_keys: HashMap<usize, String>,
+    /// The worlds by id (`<world id="...">`), created before any shape.
+    worlds: HashMap<String, u32>,
 }
 
 /// The ids of `obj` and every object nested in it.
@@ -531,6 +561,7 @@ impl Builder<'_> {
                 return Ok(());
             }
             "gltf" => return self.gltf_shape(obj, group),
+            "portal" => return self.portal(obj, group),
             "instance" => {
                 if group != 0 {
                     return Err(obj.error("instances cannot be placed inside shape groups"));
@@ -782,7 +813,7 @@ impl Builder<'_> {
         }
     }
 
-    fn emitter(&mut self, obj: &Object) -> Result<(), SceneError> {
+    fn emitter(&mut self, obj: &Object, world: u32) -> Result<(), SceneError> {
         if obj.plugin_type == "area" || obj.plugin_type == "directionalarea" {
             if obj.id.is_some() {
                 // Declared at the top level to be attached to shapes by
@@ -807,7 +838,106 @@ impl Builder<'_> {
         }
         let index = self.sb.add_emitter(e);
         self.sb.set_emitter_options(index, options);
+        self.sb.set_emitter_world(index, world);
         self.sb.record(editable.of(EditTarget::Emitter(index)));
         Ok(())
     }
+
+    /// A `<world>`'s shapes and emitters, in its own root group.
+    fn world(&mut self, obj: &Rc<Object>) -> Result<(), SceneError> {
+        let id = obj.id.clone().unwrap_or_default();
+        let w = self.worlds[&id];
+        let group = self.sb.world_group(w).expect("created above");
+        for child in &obj.children {
+            let o = &child.object;
+            child.used.set(true);
+            match (o.category, o.plugin_type.as_str()) {
+                (Category::Shape, "shapegroup" | "instance") => {
+                    return Err(o.error(
+                        "a <world> holds shapes and emitters, not shape groups or instances",
+                    ))
+                }
+                (Category::Shape, _) => self.shape(o, group)?,
+                (Category::Emitter, _) => self.emitter(o, w)?,
+                (Category::World, _) => return Err(o.error("worlds cannot be nested")),
+                _ => {
+                    return Err(o.error(format!(
+                        "a <world> holds shapes and emitters, not a <{}>",
+                        o.category
+                    )))
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A `portal`: its `here` shape in this group's world, its `there`
+    /// shape in the world named `to`, joined.
+    fn portal(&mut self, obj: &Rc<Object>, group: u32) -> Result<(), SceneError> {
+        let to = obj
+            .string("to")?
+            .ok_or_else(|| obj.error("a portal needs \"to\", the id of the <world> it opens onto"))?
+            .to_string();
+        let Some(&to_world) = self.worlds.get(&to) else {
+            let mut known: Vec<&String> = self.worlds.keys().collect();
+            known.sort();
+            return Err(SceneError::at(
+                obj.loc_of("to"),
+                format!("no <world id=\"{to}\"> (worlds: {known:?})"),
+            ));
+        };
+        let here_world = (0..)
+            .find(|w| self.sb.world_group(*w).is_none_or(|g| g == group))
+            .filter(|w| self.sb.world_group(*w).is_some())
+            .ok_or_else(|| obj.error("a portal must be in a <world> or at the top level"))?;
+        let side = |name: &str| {
+            obj.child(name)
+                .map(|c| c.object.clone())
+                .ok_or_else(|| obj.error(format!("a portal needs a shape called \"{name}\"")))
+        };
+        let (here, there) = (side("here")?, side("there")?);
+        if here.plugin_type != there.plugin_type || !same_but_placement(&here, &there) {
+            return Err(there.error(format!(
+                "the two sides of a portal must be the same shape but for to_world \
+                 (here: {} at {}, there: {})",
+                here.plugin_type, here.loc, there.plugin_type
+            )));
+        }
+        let place =
+            |b: &mut Self, o: &Rc<Object>| -> Result<yubin_core::math::Transform, SceneError> {
+                Ok(ObjParams { obj: o, b }.transform_or_identity("to_world")?)
+            };
+        let (t_here, t_there) = (place(self, &here)?, place(self, &there)?);
+        let a = self.sb.shape_count();
+        self.shape(&here, group)?;
+        let b = self.sb.shape_count();
+        let there_group = self.sb.world_group(to_world).expect("a world");
+        self.shape(&there, there_group)?;
+        if b != a + 1 || self.sb.shape_count() != b + 1 {
+            return Err(obj.error("each side of a portal must be one shape"));
+        }
+        let a_to_b = t_there.after(&yubin_core::math::Transform {
+            m: t_here.inv,
+            inv: t_here.m,
+            normal: glam::Mat3::from(t_here.m.matrix3).transpose(),
+        });
+        self.sb.add_portal(a, here_world, b, to_world, a_to_b);
+        Ok(())
+    }
+}
+
+/// Whether `a` and `b` have the same parameters (values and nested
+/// objects' types) but for `to_world` (and their BSDFs).
+fn same_but_placement(a: &Object, b: &Object) -> bool {
+    let props = |o: &Object| -> Vec<(String, String)> {
+        let mut v: Vec<_> = o
+            .props
+            .iter()
+            .filter(|p| p.name != "to_world")
+            .map(|p| (p.name.clone(), format!("{:?}", p.value)))
+            .collect();
+        v.sort();
+        v
+    };
+    props(a) == props(b)
 }

@@ -79,11 +79,14 @@ pub enum Category {
     Spectrum,
     /// `<sdf>`: a node of an `sdf` shape's distance function.
     Sdf,
+    /// `<world id="...">`: shapes and emitters apart from the camera's,
+    /// reached through portals.
+    World,
 }
 
 impl Category {
     /// Every category, in declaration order.
-    pub const ALL: [Category; 15] = [
+    pub const ALL: [Category; 16] = [
         Category::Scene,
         Category::Shape,
         Category::Bsdf,
@@ -99,6 +102,7 @@ impl Category {
         Category::Volume,
         Category::Spectrum,
         Category::Sdf,
+        Category::World,
     ];
 
     /// The XML tag name (`"bsdf"`, `"rfilter"`, ...).
@@ -119,6 +123,7 @@ impl Category {
             Category::Volume => "volume",
             Category::Spectrum => "spectrum",
             Category::Sdf => "sdf",
+            Category::World => "world",
         }
     }
 

@@ -450,7 +450,13 @@ impl Parser {
     ) -> Result<Child, SceneError> {
         src.check_attributes(el, &["type", "id", "name"])?;
         let loc = src.loc(el);
-        let mut object = Object::new(category, self.required(src, el, "type")?.value, loc.clone());
+        // A <world> has no plugin type: it is a group of objects.
+        let kind = if category == Category::World {
+            "world".to_string()
+        } else {
+            self.required(src, el, "type")?.value
+        };
+        let mut object = Object::new(category, kind, loc.clone());
         let id = self.optional(src, el, "id")?;
         object.id = id.as_ref().map(|a| a.value.clone());
         object.name = self.child_name(src, el, parent)?;

@@ -215,6 +215,9 @@ pub(crate) struct RayOrigin {
     pub bsdf_pdf: Option<f32>,
     /// The ray is a camera ray (emitters with `visible = false` hide).
     pub camera: bool,
+    /// The world the ray ends in, whose environment an escaping ray
+    /// sees (0 without portals).
+    pub world: u32,
 }
 
 impl RayOrigin {
@@ -225,6 +228,7 @@ impl RayOrigin {
             n: Vec3::ZERO,
             bsdf_pdf: None,
             camera: true,
+            world: 0,
         }
     }
 
@@ -240,6 +244,7 @@ impl RayOrigin {
             n,
             bsdf_pdf,
             camera: false,
+            world: 0,
         }
     }
 
@@ -301,7 +306,7 @@ pub(crate) fn environment_emission(
     use crate::light::LightChoice;
     let ctx = scene.emitter_context();
     let mut l = Rgb::ZERO;
-    for &e in &scene.environment_emitters {
+    for &e in scene.environment_of(origin.world) {
         if !origin.sees(scene, e) {
             continue;
         }

@@ -110,7 +110,11 @@ impl Integrator for PathIntegrator {
     fn li(&self, scene: &RenderScene, camera_ray: &Ray, sampler: &mut SampleStream) -> Rgb {
         let mut path = Path::new(camera_ray);
         loop {
-            let hit = scene.closest(&path.ray);
+            let hit = if scene.has_portals() {
+                path.trace_through_portals(scene)
+            } else {
+                scene.closest(&path.ray)
+            };
             if !self.bounce(scene, &mut path, hit, sampler) {
                 break;
             }
@@ -130,6 +134,20 @@ impl Integrator for PathIntegrator {
         samplers: &mut [SampleStream],
         out: &mut [f32],
     ) {
+        if scene.has_portals() {
+            // Paths through portals are traced one by one.
+            for ((ray, sampler), out) in rays
+                .iter()
+                .zip(samplers)
+                .zip(out.chunks_mut(self.channel_count()))
+            {
+                out.fill(0.0);
+                if let Some(ray) = ray {
+                    out.copy_from_slice(&self.li(scene, ray, sampler).to_array());
+                }
+            }
+            return;
+        }
         let mut lanes = Lanes {
             paths: std::array::from_fn(|_| Path::new(&Ray::new(Vec3::ZERO, Vec3::Z))),
             sample: [0; PACKET_RAYS],
@@ -210,6 +228,30 @@ impl Integrator for PathIntegrator {
             }
         }
     }
+}
+
+/// A light sample at `si` in world `world`: none when the chosen emitter
+/// is in another world (its light reaches this one through portals, by
+/// BSDF sampling alone).
+fn light_sample_in_world(
+    scene: &RenderScene,
+    si: &SurfaceInteraction,
+    world: u32,
+    sampler: &mut SampleStream,
+    eval: impl FnOnce(Vec3, bool) -> (Rgb, f32),
+) -> Option<UnshadowedSample> {
+    let draw = LightDraw::draw(sampler);
+    let (light, pick_pdf) = scene.pick_light(draw.u_pick, si.p, si.n)?;
+    if scene.emitter_world(light.emitter) != world {
+        return None;
+    }
+    let ls = sample_chosen_light(scene, light, si.p, draw.u)?;
+    let picked = PickedLightSample {
+        ls,
+        pick_pdf,
+        emitter: light.emitter,
+    };
+    light_sample_unshadowed_by(scene, si, &picked, 1.0, eval)
 }
 
 /// Adds the light sample `l` to `path`, its shadow ray traced now through
@@ -337,6 +379,8 @@ struct Path {
     origin: RayOrigin,
     /// Number of segments traced so far minus one (0 at the first hit).
     depth: u32,
+    /// The world the path is in (portals; 0 without them).
+    world: u32,
 }
 
 impl Path {
@@ -348,7 +392,21 @@ impl Path {
             ray: *camera_ray,
             origin: RayOrigin::camera(camera_ray.o),
             depth: 0,
+            world: 0,
         }
+    }
+
+    /// The closest hit of the path's ray, through portals: the ray becomes
+    /// its last segment; what a crossing ray meets is weighted as only
+    /// BSDF sampling finds it (see `scene/worlds.rs`).
+    #[inline]
+    fn trace_through_portals(&mut self, scene: &RenderScene) -> Option<HitRecord> {
+        let traced = scene.trace(&mut self.ray, &mut self.world);
+        if traced.crossed {
+            self.origin.bsdf_pdf = None;
+        }
+        self.origin.world = self.world;
+        traced.hit
     }
 }
 
@@ -421,7 +479,13 @@ impl PathIntegrator {
         let ctx = BsdfContext::default();
         if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) {
             let eval = |wi, mis| bsdf.eval_pdf_if(&ctx, wi, mis);
-            if let Some(l) = sample_light_unshadowed_by(scene, si, sampler, 1.0, eval) {
+            if scene.has_portals() {
+                if let Some(l) = light_sample_in_world(scene, si, path.world, sampler, eval) {
+                    if !scene.occluded_in(&l.shadow, path.world) {
+                        path.l += path.beta * l.through(1.0);
+                    }
+                }
+            } else if let Some(l) = sample_light_unshadowed_by(scene, si, sampler, 1.0, eval) {
                 self.add_light_sample(scene, path, &l, shadows);
             }
         }

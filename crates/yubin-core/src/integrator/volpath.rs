@@ -509,6 +509,7 @@ impl Integrator for VolPathIntegrator {
                         n: Vec3::ZERO,
                         bsdf_pdf: m.sample_emitters().then_some(ps.pdf),
                         camera: false,
+                        world: 0,
                     };
                     crossed = false;
                     ray = Ray::new(p, ps.wi);

@@ -104,6 +104,12 @@ pub struct SceneBuilder {
     /// What [`crate::Scene::update`] needs: editable objects, groups'
     /// contents in order.
     edits: Edits,
+    /// Per world, its root group (world 0: group 0).
+    world_groups: Vec<u32>,
+    /// Per emitter, its world (missing ones: world 0).
+    emitter_world: Vec<u32>,
+    /// The portal sides: (shape, where it leads).
+    portal_sides: Vec<(u32, crate::scene::PortalSide)>,
 }
 
 impl Default for SceneBuilder {
@@ -142,7 +148,73 @@ impl SceneBuilder {
             media: Vec::new(),
             camera_medium: None,
             edits: Edits::new(),
+            world_groups: vec![0],
+            emitter_world: Vec::new(),
+            portal_sides: Vec::new(),
         }
+    }
+
+    /// Shapes added so far (the next shape's index).
+    pub fn shape_count(&self) -> u32 {
+        self.shapes.len() as u32
+    }
+
+    /// Whether any portal has been added.
+    pub fn has_portals(&self) -> bool {
+        !self.portal_sides.is_empty()
+    }
+
+    /// Creates an empty world (its own root group and environment);
+    /// returns its index.
+    pub fn add_world(&mut self) -> u32 {
+        let group = self.add_group();
+        self.world_groups.push(group);
+        self.world_groups.len() as u32 - 1
+    }
+
+    /// The root group of world `world`.
+    pub fn world_group(&self, world: u32) -> Option<u32> {
+        self.world_groups.get(world as usize).copied()
+    }
+
+    /// The world whose root is `group`, if it is one.
+    fn world_of_group(&self, group: u32) -> Option<u32> {
+        self.world_groups
+            .iter()
+            .position(|g| *g == group)
+            .map(|w| w as u32)
+    }
+
+    /// Puts emitter `emitter` in world `world`.
+    pub fn set_emitter_world(&mut self, emitter: u32, world: u32) {
+        if self.emitter_world.len() <= emitter as usize {
+            self.emitter_world.resize(emitter as usize + 1, 0);
+        }
+        self.emitter_world[emitter as usize] = world;
+    }
+
+    /// Joins shapes `a` (in world `world_a`) and `b` (in `world_b`) as the
+    /// two sides of a portal; `a_to_b` maps `a`'s space onto `b`'s.
+    pub fn add_portal(&mut self, a: u32, world_a: u32, b: u32, world_b: u32, a_to_b: Transform) {
+        let inverse = Transform {
+            m: a_to_b.inv,
+            inv: a_to_b.m,
+            normal: glam::Mat3::from(a_to_b.m.matrix3).transpose(),
+        };
+        self.portal_sides.push((
+            a,
+            crate::scene::PortalSide {
+                to_world: world_b,
+                map: a_to_b,
+            },
+        ));
+        self.portal_sides.push((
+            b,
+            crate::scene::PortalSide {
+                to_world: world_a,
+                map: inverse,
+            },
+        ));
     }
 
     /// Makes an object editable under its key ([`Scene::parameters`],
@@ -288,7 +360,8 @@ impl SceneBuilder {
             None => self.add_bsdf(Material::Diffuse(Diffuse::default())),
         };
         let id = self.shapes.len() as u32;
-        let (emitter, grouped) = if group == 0 {
+        let world = self.world_of_group(group);
+        let (emitter, grouped) = if world.is_some() {
             (emitter, None)
         } else {
             (None, emitter)
@@ -305,7 +378,9 @@ impl SceneBuilder {
             if let Shape::Mesh(m) = shape {
                 self.meshes[m.mesh as usize].prepare_area_sampling();
             }
-            self.add_emitter(e.on_shape(id))
+            let e = self.add_emitter(e.on_shape(id));
+            self.set_emitter_world(e, world.unwrap_or(0));
+            e
         });
         let prims = shape.prim_count(&self.meshes);
         self.shapes.push(shape);
@@ -498,6 +573,34 @@ impl SceneBuilder {
         let groups = self.build_groups()?;
         self.prepare_emitters()?;
         let environment_emitters = environment_emitters(&self.emitters);
+        let mut emitter_world = std::mem::take(&mut self.emitter_world);
+        emitter_world.resize(self.emitters.len(), 0);
+        let worlds = self
+            .world_groups
+            .iter()
+            .enumerate()
+            .map(|(w, &group)| crate::scene::World {
+                group,
+                environment: environment_emitters
+                    .iter()
+                    .copied()
+                    .filter(|e| emitter_world[*e as usize] == w as u32)
+                    .collect(),
+            })
+            .collect();
+        let mut portals = Vec::new();
+        if !self.portal_sides.is_empty() {
+            portals.resize(self.shapes.len(), None);
+            for (shape, side) in &self.portal_sides {
+                portals[*shape as usize] = Some(*side);
+            }
+        }
+        let world0_environment: Vec<u32> = environment_emitters
+            .iter()
+            .copied()
+            .filter(|e| emitter_world[*e as usize] == 0)
+            .collect();
+        let environment_emitters = world0_environment;
         let bsdf_flags: Vec<_> = (self.materials.bsdfs.iter())
             .map(|b| b.flags(&self.materials))
             .collect();
@@ -517,6 +620,9 @@ impl SceneBuilder {
             emitters: self.emitters,
             emitter_options: self.emitter_options,
             environment_emitters,
+            worlds,
+            portals,
+            emitter_world,
             camera,
             film: self.film,
             sampler: self.sampler,

@@ -29,9 +29,11 @@ mod media;
 mod packet;
 mod parameters;
 mod traversal;
+mod worlds;
 
 pub use build::{BuildError, SceneBuilder};
 pub use parameters::{EditTarget, Editable, RebuildCounts};
+pub use worlds::{PortalSide, Traced, World, MAX_CROSSINGS};
 
 use crate::bsdf::Material;
 use crate::camera::Camera;
@@ -162,8 +164,14 @@ pub struct Scene {
     pub emitters: Vec<Emitter>,
     /// Per emitter: visibility and sampling weight.
     pub emitter_options: Vec<EmitterOptions>,
-    /// Indices of emitters at infinity (hit by escaping rays).
+    /// Indices of emitters at infinity (hit by escaping rays) of world 0.
     pub environment_emitters: Vec<u32>,
+    /// The worlds (`worlds[0]` is the camera's; see `scene/worlds.rs`).
+    pub worlds: Vec<World>,
+    /// Per shape, the portal side it is (empty when there are no portals).
+    pub(crate) portals: Vec<Option<PortalSide>>,
+    /// Per emitter, its world.
+    pub(crate) emitter_world: Vec<u32>,
     /// The camera.
     pub camera: Camera,
     /// The film.

@@ -275,7 +275,21 @@ impl Scene {
                 let emitter = self.prepared(build(&mut replay)?)?;
                 self.emitters[i as usize] = emitter;
                 self.emitter_options[i as usize] = options;
-                self.environment_emitters = environment_emitters(&self.emitters);
+                let all = environment_emitters(&self.emitters);
+                for (w, world) in self.worlds.iter_mut().enumerate() {
+                    world.environment = all
+                        .iter()
+                        .copied()
+                        .filter(|e| {
+                            self.emitter_world.get(*e as usize).map_or(0, |x| *x) == w as u32
+                        })
+                        .collect();
+                }
+                self.environment_emitters = self
+                    .worlds
+                    .first()
+                    .map(|w| w.environment.clone())
+                    .unwrap_or(all);
             }
             EditTarget::AreaEmitter(i) => {
                 let radiance = replay.texture_or("radiance", ColorKind::Illuminant, Rgb::ONE)?;

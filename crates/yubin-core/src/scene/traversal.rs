@@ -406,7 +406,7 @@ impl Scene {
     }
 
     /// True when any item of the group blocks the ray.
-    fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
+    pub(super) fn occluded_in_group(&self, g: &Group, ray: &Ray) -> bool {
         if g.only_triangles {
             triangle_occludes(g, ray)
         } else {
