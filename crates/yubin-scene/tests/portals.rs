@@ -194,8 +194,7 @@ fn a_room_through_a_portal_looks_as_behind_a_window() {
 /// BSDF samples alone). Through a portal, light is found by BSDF samples
 /// only, whose rare hits make single pixels heavy-tailed at this sample
 /// count: the image's sum over 16 renders of 512 spp is compared (z < 4),
-/// and a lamp 10 % brighter
-/// behind the portal fails.
+/// and a lamp 10 % brighter behind the portal fails.
 #[test]
 fn light_through_a_portal_lights_the_other_world() {
     for weight in [1.0, 0.0] {
