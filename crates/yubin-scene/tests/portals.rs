@@ -3,46 +3,11 @@
 //! independent renders, with and without next-event estimation of its
 //! lamp), and bad portals are refused with their line.
 
-use std::path::Path;
-use yubin_core::render::{render, RenderSettings};
-use yubin_scene::load_scene_str;
+mod common;
 
-/// Per pixel-channel mean and sample variance of `k` renders of `xml`,
-/// seeds `seed0`… (the two scenes compared take different seeds, so that
-/// their estimates are independent).
-fn render_statistics(xml: &str, spp: u32, k: u32, seed0: u32) -> (Vec<f64>, Vec<f64>) {
-    let loaded = load_scene_str(xml, Path::new("test.xml"), &[]).unwrap_or_else(|e| panic!("{e}"));
-    let images: Vec<Vec<f32>> = (0..k)
-        .map(|i| {
-            let settings = RenderSettings {
-                spp,
-                seed: seed0 + i,
-            };
-            render(
-                &loaded.scene,
-                loaded.integrator.as_ref(),
-                &settings,
-                &|_| {},
-            )
-            .image
-            .data
-        })
-        .collect();
-    let n = images[0].len();
-    let mean: Vec<f64> = (0..n)
-        .map(|i| images.iter().map(|im| im[i] as f64).sum::<f64>() / k as f64)
-        .collect();
-    let var = (0..n)
-        .map(|i| {
-            images
-                .iter()
-                .map(|im| (im[i] as f64 - mean[i]).powi(2))
-                .sum::<f64>()
-                / (k - 1) as f64
-        })
-        .collect();
-    (mean, var)
-}
+use common::render_statistics_from;
+use std::path::Path;
+use yubin_scene::load_scene_str;
 
 /// The camera, film and integrator around `body`.
 fn scene(body: &str) -> String {
@@ -142,8 +107,8 @@ fn portal(lamp_weight: f32, there_dx: f32, ground: bool) -> String {
 /// Worst per-pixel Welch t and the z of the image sums, from `k` renders
 /// of each scene.
 fn compare(a: &str, b: &str, spp: u32, k: u32) -> (f64, f64) {
-    let (ma, va) = render_statistics(a, spp, k, 0);
-    let (mb, vb) = render_statistics(b, spp, k, 1000);
+    let (ma, va) = render_statistics_from(a, spp, k, 0);
+    let (mb, vb) = render_statistics_from(b, spp, k, 1000);
     let t = |i: usize| (ma[i] - mb[i]).abs() / ((va[i] + vb[i]) / k as f64).sqrt().max(1e-6);
     let at = (0..ma.len())
         .max_by(|x, y| t(*x).total_cmp(&t(*y)))

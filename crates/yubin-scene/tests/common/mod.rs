@@ -36,13 +36,22 @@ pub fn render_file(path: &Path, defines: &[(String, String)], spp: u32, seed: u3
 /// Per pixel-channel mean and sample variance of `k` renders (seeds
 /// 0..k) of the scene `xml`.
 pub fn render_statistics(xml: &str, spp: u32, k: u32) -> (Vec<f64>, Vec<f64>) {
+    render_statistics_from(xml, spp, k, 0)
+}
+
+/// [`render_statistics`] with seeds `seed0..seed0 + k` (two scenes
+/// compared with different seeds give independent estimates).
+pub fn render_statistics_from(xml: &str, spp: u32, k: u32, seed0: u32) -> (Vec<f64>, Vec<f64>) {
     let loaded = load_scene_str(xml, Path::new("test.xml"), &[]).unwrap_or_else(|e| panic!("{e}"));
     let images: Vec<Vec<f32>> = (0..k)
-        .map(|seed| {
+        .map(|i| {
             render(
                 &loaded.scene,
                 loaded.integrator.as_ref(),
-                &RenderSettings { spp, seed },
+                &RenderSettings {
+                    spp,
+                    seed: seed0 + i,
+                },
                 &|_| {},
             )
             .image
