@@ -213,4 +213,8 @@ fn bad_portals_are_refused_with_their_line() {
         Err(e) => e.to_string(),
     };
     assert!(e.contains("path integrator"), "{e}");
+    let e = error_of(&format!(
+        "<world id=\"w\"/><shape type=\"portal\"><string name=\"to\" value=\"w\"/>{rect}<shape type=\"rectangle\" name=\"there\"/></shape>\n<shape type=\"sphere\"><bsdf type=\"null\"/></shape>"
+    ));
+    assert!(e.contains("do not yet combine with null"), "{e}");
 }

@@ -42,6 +42,10 @@ pub enum BuildError {
         /// Primitives in the group.
         count: usize,
     },
+    /// Portals in a scene with surfaces that let shadow rays through
+    /// (`null`, `mask`, `thindielectric` slabs) or with media, which the
+    /// world-aware shadow rays do not cross yet.
+    PortalsWithPassThrough,
     /// A composite BSDF nesting more BSDFs than the BSDF at a vertex holds
     /// ([`crate::bsdf::MAX_NODES`] nodes, [`crate::bsdf::MAX_LOBES`]
     /// single models).
@@ -68,6 +72,11 @@ impl std::fmt::Display for BuildError {
                 "{count} primitives in one group are more than one BVH can hold \
                  (at most {} leaf positions); split the geometry into shape groups",
                 crate::accel::MAX_POSITIONS
+            ),
+            BuildError::PortalsWithPassThrough => write!(
+                f,
+                "portals do not yet combine with null, mask or thindielectric surfaces or \
+                 with media (shadow rays through them stay in one world)"
             ),
             BuildError::CompositeTooLarge { bsdf, size } => write!(
                 f,
@@ -605,6 +614,9 @@ impl SceneBuilder {
             .map(|b| b.flags(&self.materials))
             .collect();
         let (has_pass_through, has_null_transmission) = self.pass_through(&bsdf_flags);
+        if !self.portal_sides.is_empty() && (has_pass_through || !self.media.is_empty()) {
+            return Err(BuildError::PortalsWithPassThrough);
+        }
         let uv_unread = self.uv_unread_by_integrator && self.materials.textures.is_empty();
         let free_frame = self.free_frames(uv_unread);
         Ok(Scene {
