@@ -1,6 +1,7 @@
 //! `yubin-bench sdf`: the cost of ray marching on a scene's `sdf` and
 //! `mandelbox` shapes. One camera ray per pixel (through its centre) is
-//! marched through each ray-marched shape whose box it enters, with the
+//! marched through each ray-marched shape whose box it enters (shapes in
+//! another world, behind a portal, are listed with no marches), with the
 //! file's `step_factor` and again with every step factor set to 1:
 //! distance evaluations per ray, marches per second on one thread, and
 //! how many marches ended at the step limit, and (at step factor 1) how
@@ -78,6 +79,11 @@ pub fn run(args: &[String]) -> Result<()> {
                 hits.push(t);
             }
             let secs = start.elapsed().as_secs_f64();
+            if marches == 0 {
+                // In another world (behind a portal) or out of view.
+                println!("| {i} | — | 0 | — | — | — | — |");
+                break;
+            }
             let moved = if first.is_empty() {
                 "—".to_string()
             } else {
