@@ -886,9 +886,9 @@ impl Builder<'_> {
                 format!("no <world id=\"{to}\"> (worlds: {known:?})"),
             ));
         };
-        let here_world = (0..)
-            .find(|w| self.sb.world_group(*w).is_none_or(|g| g == group))
-            .filter(|w| self.sb.world_group(*w).is_some())
+        let here_world = self
+            .sb
+            .world_of_group(group)
             .ok_or_else(|| obj.error("a portal must be in a <world> or at the top level"))?;
         let side = |name: &str| {
             obj.child(name)
@@ -916,11 +916,7 @@ impl Builder<'_> {
         if b != a + 1 || self.sb.shape_count() != b + 1 {
             return Err(obj.error("each side of a portal must be one shape"));
         }
-        let a_to_b = t_there.after(&yubin_core::math::Transform {
-            m: t_here.inv,
-            inv: t_here.m,
-            normal: glam::Mat3::from(t_here.m.matrix3).transpose(),
-        });
+        let a_to_b = t_there.after(&t_here.inverse());
         self.sb.add_portal(a, here_world, b, to_world, a_to_b);
         Ok(())
     }

@@ -339,10 +339,6 @@ impl Ctx {
         Ok(props)
     }
 
-    fn plain_props(&self, lua: &Lua, t: &Table, what: &str) -> mlua::Result<Vec<Property>> {
-        self.props_of(lua, t, what, &[])
-    }
-
     /// An `<sdf>` node from a table: `type`, its parameters, optional
     /// `scale` (a number or `{x, y, z}`), `rotate` (`{axis, degrees}`) and
     /// `translate` (`{x, y, z}`), applied in that order, and its children
@@ -710,7 +706,7 @@ fn install_gr(lua: &Lua, ctx: &Rc<Ctx>) -> mlua::Result<()> {
             move |lua, (_name, tree, options): (Option<String>, Table, Option<Table>)| {
                 let node = c.sdf_node(lua, &tree, 0)?;
                 let props = match options {
-                    Some(t) => c.plain_props(lua, &t, "gr.sdf")?,
+                    Some(t) => c.props_of(lua, &t, "gr.sdf", &[])?,
                     None => Vec::new(),
                 };
                 Ok(Node::new(Geometry::Marched("sdf", props, vec![node])))
@@ -723,7 +719,7 @@ fn install_gr(lua: &Lua, ctx: &Rc<Ctx>) -> mlua::Result<()> {
         lua.create_function(
             move |lua, (_name, options): (Option<String>, Option<Table>)| {
                 let props = match options {
-                    Some(t) => c.plain_props(lua, &t, "gr.mandelbox")?,
+                    Some(t) => c.props_of(lua, &t, "gr.mandelbox", &[])?,
                     None => Vec::new(),
                 };
                 Ok(Node::new(Geometry::Marched("mandelbox", props, vec![])))

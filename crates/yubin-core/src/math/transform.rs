@@ -69,6 +69,15 @@ impl Transform {
         self.m.matrix3.determinant() < 0.0
     }
 
+    /// The inverse map.
+    pub fn inverse(&self) -> Transform {
+        Transform {
+            m: self.inv,
+            inv: self.m,
+            normal: Mat3::from(self.m.matrix3).transpose(),
+        }
+    }
+
     /// `self` applied after `first`.
     pub fn after(&self, first: &Transform) -> Transform {
         let m = self.m * first.m;

@@ -187,7 +187,7 @@ impl SceneBuilder {
     }
 
     /// The world whose root is `group`, if it is one.
-    fn world_of_group(&self, group: u32) -> Option<u32> {
+    pub fn world_of_group(&self, group: u32) -> Option<u32> {
         self.world_groups
             .iter()
             .position(|g| *g == group)
@@ -205,11 +205,6 @@ impl SceneBuilder {
     /// Joins shapes `a` (in world `world_a`) and `b` (in `world_b`) as the
     /// two sides of a portal; `a_to_b` maps `a`'s space onto `b`'s.
     pub fn add_portal(&mut self, a: u32, world_a: u32, b: u32, world_b: u32, a_to_b: Transform) {
-        let inverse = Transform {
-            m: a_to_b.inv,
-            inv: a_to_b.m,
-            normal: glam::Mat3::from(a_to_b.m.matrix3).transpose(),
-        };
         self.portal_sides.push((
             a,
             crate::scene::PortalSide {
@@ -221,7 +216,7 @@ impl SceneBuilder {
             b,
             crate::scene::PortalSide {
                 to_world: world_a,
-                map: inverse,
+                map: a_to_b.inverse(),
             },
         ));
     }
@@ -581,21 +576,13 @@ impl SceneBuilder {
         let placed_emitters = self.place_group_emitters()?;
         let groups = self.build_groups()?;
         self.prepare_emitters()?;
-        let environment_emitters = environment_emitters(&self.emitters);
         let mut emitter_world = std::mem::take(&mut self.emitter_world);
         emitter_world.resize(self.emitters.len(), 0);
-        let worlds = self
-            .world_groups
-            .iter()
-            .enumerate()
-            .map(|(w, &group)| crate::scene::World {
-                group,
-                environment: environment_emitters
-                    .iter()
-                    .copied()
-                    .filter(|e| emitter_world[*e as usize] == w as u32)
-                    .collect(),
-            })
+        let environments =
+            world_environments(&self.emitters, &emitter_world, self.world_groups.len());
+        let environment_emitters = environments[0].clone();
+        let worlds = (self.world_groups.iter().zip(environments))
+            .map(|(&group, environment)| crate::scene::World { group, environment })
             .collect();
         let mut portals = Vec::new();
         if !self.portal_sides.is_empty() {
@@ -604,12 +591,6 @@ impl SceneBuilder {
                 portals[*shape as usize] = Some(*side);
             }
         }
-        let world0_environment: Vec<u32> = environment_emitters
-            .iter()
-            .copied()
-            .filter(|e| emitter_world[*e as usize] == 0)
-            .collect();
-        let environment_emitters = world0_environment;
         let bsdf_flags: Vec<_> = (self.materials.bsdfs.iter())
             .map(|b| b.flags(&self.materials))
             .collect();
@@ -759,6 +740,22 @@ impl SceneBuilder {
 }
 
 /// Indices of the emitters at infinity.
+/// Per world (`worlds` of them), its emitters at infinity.
+pub(super) fn world_environments(
+    emitters: &[Emitter],
+    emitter_world: &[u32],
+    worlds: usize,
+) -> Vec<Vec<u32>> {
+    let mut lists = vec![Vec::new(); worlds.max(1)];
+    for e in environment_emitters(emitters) {
+        let w = emitter_world.get(e as usize).map_or(0, |w| *w as usize);
+        if let Some(list) = lists.get_mut(w) {
+            list.push(e);
+        }
+    }
+    lists
+}
+
 pub(super) fn environment_emitters(emitters: &[Emitter]) -> Vec<u32> {
     (emitters.iter().enumerate())
         .filter(|(_, e)| e.is_environment())

@@ -47,8 +47,7 @@
 //! and the instances that place them (each instance holds a copy).
 
 use super::build::{
-    build_group, environment_emitters, free_frames, pass_through, unbuilt_group, BuildError,
-    Geometry,
+    build_group, free_frames, pass_through, unbuilt_group, world_environments, BuildError, Geometry,
 };
 use super::traversal::Item;
 use super::Scene;
@@ -275,21 +274,12 @@ impl Scene {
                 let emitter = self.prepared(build(&mut replay)?)?;
                 self.emitters[i as usize] = emitter;
                 self.emitter_options[i as usize] = options;
-                let all = environment_emitters(&self.emitters);
-                for (w, world) in self.worlds.iter_mut().enumerate() {
-                    world.environment = all
-                        .iter()
-                        .copied()
-                        .filter(|e| {
-                            self.emitter_world.get(*e as usize).map_or(0, |x| *x) == w as u32
-                        })
-                        .collect();
+                let lists =
+                    world_environments(&self.emitters, &self.emitter_world, self.worlds.len());
+                self.environment_emitters = lists[0].clone();
+                for (world, list) in self.worlds.iter_mut().zip(lists) {
+                    world.environment = list;
                 }
-                self.environment_emitters = self
-                    .worlds
-                    .first()
-                    .map(|w| w.environment.clone())
-                    .unwrap_or(all);
             }
             EditTarget::AreaEmitter(i) => {
                 let radiance = replay.texture_or("radiance", ColorKind::Illuminant, Rgb::ONE)?;

@@ -124,6 +124,22 @@ pub fn from_params(p: &mut dyn Params) -> Result<BuiltShape, ParamError> {
     plugin_of(p, "shape", PLUGINS, Some(known))?(p)
 }
 
+/// `value` stored for the program's life in `store`, once per content:
+/// what a shape refers to as `&'static` so that it stays a `Copy` value
+/// (`sdf` trees, `sdfgrid` samples).
+pub(crate) fn interned<T: PartialEq>(
+    store: &'static std::sync::Mutex<Vec<&'static T>>,
+    value: T,
+) -> &'static T {
+    let mut all = store.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(t) = all.iter().find(|t| ***t == value) {
+        return t;
+    }
+    let t: &'static T = Box::leak(Box::new(value));
+    all.push(t);
+    t
+}
+
 /// The result of intersecting one primitive: the distance and whatever
 /// the shape needs to finish the interaction (barycentrics, local uv).
 // Not padded to 16 bytes: it is returned from the triangle tests in the

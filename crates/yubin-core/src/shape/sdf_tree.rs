@@ -153,13 +153,7 @@ impl SdfTree {
     /// The tree stored for the program's life: the same content is stored
     /// once.
     pub fn interned(self) -> &'static SdfTree {
-        let mut all = INTERNED.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(t) = all.iter().find(|t| ***t == self) {
-            return t;
-        }
-        let t: &'static SdfTree = Box::leak(Box::new(self));
-        all.push(t);
-        t
+        super::interned(&INTERNED, self)
     }
 
     /// The nodes, the root last.

@@ -90,13 +90,7 @@ impl SdfGridData {
 
     /// The same grid stored for the program's life (once per content).
     pub fn interned(self) -> &'static SdfGridData {
-        let mut all = INTERNED.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(g) = all.iter().find(|g| ***g == self) {
-            return g;
-        }
-        let g: &'static SdfGridData = Box::leak(Box::new(self));
-        all.push(g);
-        g
+        super::interned(&INTERNED, self)
     }
 
     /// Voxels the surface passes through.
