@@ -329,7 +329,10 @@ pub(crate) fn environment_emission(
                 emitter: e,
                 prim: LightChoice::WHOLE,
             };
-            (le, Some(scene.light_pmf(choice, origin.p, origin.n) * pdf))
+            (
+                le,
+                Some(scene.light_pmf_in(origin.world, choice, origin.p, origin.n) * pdf),
+            )
         } else {
             (emitter.environment_radiance(&ctx, d), None)
         };
@@ -379,7 +382,7 @@ pub(crate) fn surface_emission_with(
             }
             _ => emitter.pdf_direction(&ctx, origin.p, si.p, n, -si.wo),
         };
-        scene.light_pmf(light, origin.p, origin.n) * pdf_direction
+        scene.light_pmf_in(origin.world, light, origin.p, origin.n) * pdf_direction
     });
     weigh(le, light_pdf)
 }

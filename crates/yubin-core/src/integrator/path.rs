@@ -48,13 +48,13 @@ use super::{
 use crate::accel::PACKET_RAYS;
 use crate::bsdf::{BsdfContext, BsdfFlags, BsdfSample};
 use crate::interaction::SurfaceInteraction;
-use crate::light::{LightChoice, LightSelection};
+use crate::light::{EmitterSample, LightChoice, LightSelection};
 use crate::math::spawn_ray;
 use crate::math::Ray;
 use crate::params::{ParamError, Params};
 use crate::render::RenderScene;
 use crate::sampler::SampleStream;
-use crate::scene::HitRecord;
+use crate::scene::{HitRecord, LightView};
 use crate::Rgb;
 use glam::Vec3;
 
@@ -230,25 +230,85 @@ impl Integrator for PathIntegrator {
     }
 }
 
-/// A light sample at `si` in world `world`: none when the chosen emitter
-/// is in another world (its light reaches this one through portals, by
-/// BSDF sampling alone).
-fn light_sample_in_world(
+/// Next-event estimation at `si` in world `world` of a scene with
+/// portals, shadow ray traced: the vertex looks directly at its world's
+/// emitters or through one of its portal sides at the far world's (see
+/// `scene/worlds.rs`); zero when the chosen emitter is in another world
+/// than the one looked into. The view is chosen by the light choice's
+/// number, stretched, so the sample draws the numbers it draws without
+/// portals.
+fn light_sample_through_portals(
     scene: &RenderScene,
     si: &SurfaceInteraction,
     world: u32,
     sampler: &mut SampleStream,
     eval: impl FnOnce(Vec3, bool) -> (Rgb, f32),
-) -> Option<UnshadowedSample> {
+) -> Rgb {
     let draw = LightDraw::draw(sampler);
-    let (light, pick_pdf) = scene.pick_light(draw.u_pick, si.p, si.n)?;
-    if scene.emitter_world(light.emitter) != world {
-        return None;
+    let views = scene.light_views(world);
+    let count = views.len();
+    let stretched = draw.u_pick * count as f32;
+    let view = (stretched as usize).min(count.saturating_sub(1));
+    let u_pick = (stretched - view as f32).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+    let view_pdf = 1.0 / count as f32;
+    let side = match views.get(view) {
+        None => return Rgb::ZERO,
+        Some(LightView::Own) => {
+            return light_sample_in_world(scene, si, world, u_pick, draw.u, view_pdf, eval)
+                .filter(|l| !scene.occluded_in(&l.shadow, world))
+                .map_or(Rgb::ZERO, |l| l.through(1.0));
+        }
+        Some(&LightView::Through(side)) => side,
+    };
+    let Some(portal) = scene.portal_of(side) else {
+        return Rgb::ZERO;
+    };
+    let (map, unmap) = (portal.map, portal.map.inverse());
+    // The vertex as the far world sees it through the portal.
+    let (p, n) = (map.point(si.p), map.normal(si.n).normalize_or_zero());
+    let Some((light, pick_pdf)) = scene.pick_light_in(portal.to_world, u_pick, p, n) else {
+        return Rgb::ZERO;
+    };
+    let Some(ls) = sample_chosen_light(scene, light, p, draw.u) else {
+        return Rgb::ZERO;
+    };
+    let target = ls.dist.is_finite().then(|| p + ls.wi * ls.dist);
+    let picked = PickedLightSample {
+        ls: EmitterSample {
+            wi: unmap.vector(ls.wi).normalize(),
+            dist: f32::INFINITY,
+            ..ls
+        },
+        pick_pdf: pick_pdf * view_pdf,
+        emitter: light.emitter,
+    };
+    let Some(l) = light_sample_unshadowed_by(scene, si, &picked, 1.0, eval) else {
+        return Rgb::ZERO;
+    };
+    if scene.visible_through(&l.shadow, world, side, target) {
+        l.through(1.0)
+    } else {
+        Rgb::ZERO
     }
-    let ls = sample_chosen_light(scene, light, si.p, draw.u)?;
+}
+
+/// A light sample at `si` of world `world`'s own emitters, chosen by
+/// `u_pick` (none when the chosen emitter is in another world), its
+/// density scaled by `view_pdf`.
+fn light_sample_in_world(
+    scene: &RenderScene,
+    si: &SurfaceInteraction,
+    world: u32,
+    u_pick: f32,
+    u: glam::Vec2,
+    view_pdf: f32,
+    eval: impl FnOnce(Vec3, bool) -> (Rgb, f32),
+) -> Option<UnshadowedSample> {
+    let (light, pick_pdf) = scene.pick_light_in(world, u_pick, si.p, si.n)?;
+    let ls = sample_chosen_light(scene, light, si.p, u)?;
     let picked = PickedLightSample {
         ls,
-        pick_pdf,
+        pick_pdf: pick_pdf * view_pdf,
         emitter: light.emitter,
     };
     light_sample_unshadowed_by(scene, si, &picked, 1.0, eval)
@@ -397,14 +457,34 @@ impl Path {
     }
 
     /// The closest hit of the path's ray, through portals: the ray becomes
-    /// its last segment; what a crossing ray meets is weighted as only
-    /// BSDF sampling finds it (see `scene/worlds.rs`).
+    /// its last segment, and its origin what MIS weighs an emitter it
+    /// finds against (see `scene/worlds.rs`): the vertex as seen through
+    /// the one portal crossed, or no MIS after two crossings (or one that
+    /// light sampling does not look through).
     #[inline]
     fn trace_through_portals(&mut self, scene: &RenderScene) -> Option<HitRecord> {
+        let from = self.world;
         let traced = scene.trace(&mut self.ray, &mut self.world);
-        if traced.crossed {
+        let views = scene.light_views(from);
+        let seen = match traced.crossings {
+            0 => views.contains(&LightView::Own),
+            1 => views.contains(&LightView::Through(traced.first_side)),
+            _ => false,
+        };
+        if !seen {
             self.origin.bsdf_pdf = None;
+        } else if traced.crossings == 1 {
+            if let Some(portal) = scene.portal_of(traced.first_side) {
+                self.origin.p = portal.map.point(self.origin.p);
+                self.origin.n = portal.map.normal(self.origin.n).normalize_or_zero();
+            }
         }
+        // Light sampling looks this way with probability 1/k: the light
+        // density MIS weighs against is that much smaller. The power
+        // heuristic depends on the ratio of the densities alone, so the
+        // BSDF density is scaled up instead.
+        let views = views.len() as f32;
+        self.origin.bsdf_pdf = self.origin.bsdf_pdf.map(|pdf| pdf * views);
         self.origin.world = self.world;
         traced.hit
     }
@@ -480,11 +560,8 @@ impl PathIntegrator {
         if scene.bsdf_flags_of(si.shape).intersects(BsdfFlags::SMOOTH) {
             let eval = |wi, mis| bsdf.eval_pdf_if(&ctx, wi, mis);
             if scene.has_portals() {
-                if let Some(l) = light_sample_in_world(scene, si, path.world, sampler, eval) {
-                    if !scene.occluded_in(&l.shadow, path.world) {
-                        path.l += path.beta * l.through(1.0);
-                    }
-                }
+                path.l +=
+                    path.beta * light_sample_through_portals(scene, si, path.world, sampler, eval);
             } else if let Some(l) = sample_light_unshadowed_by(scene, si, sampler, 1.0, eval) {
                 self.add_light_sample(scene, path, &l, shadows);
             }

@@ -271,6 +271,11 @@ impl LightBvh {
         bvh
     }
 
+    /// Whether the tree chooses no light at all.
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty() && self.infinite.is_empty()
+    }
+
     /// Index into `trails` of a light, if it is in the tree.
     fn trail_index(&self, light: LightChoice) -> Option<usize> {
         let first = *self.first_trail.get(light.emitter as usize)?;

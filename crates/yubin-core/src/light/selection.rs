@@ -169,9 +169,23 @@ impl LightSampler {
         ctx: &EmitterContext,
         radius: f32,
     ) -> Self {
-        let left_out: Vec<bool> = (emitters.iter().enumerate())
+        let left_out = (emitters.iter().enumerate())
             .map(|(i, e)| left_to_bsdf_sampling(e, compensated.get(i).copied().unwrap_or(false)))
             .collect();
+        Self::leaving_out(selection, emitters, options, left_out, ctx, radius)
+    }
+
+    /// [`LightSampler::new`] with the emitters it never chooses given:
+    /// `left_out[i]` for emitter `i` (those left to BSDF sampling, or
+    /// those of other worlds than a portal scene's sampler serves).
+    pub fn leaving_out(
+        selection: LightSelection,
+        emitters: &[Emitter],
+        options: &[EmitterOptions],
+        left_out: Vec<bool>,
+        ctx: &EmitterContext,
+        radius: f32,
+    ) -> Self {
         if emitters.is_empty() {
             return Self {
                 selection,
@@ -245,6 +259,11 @@ impl LightSampler {
             ));
         }
         self.bvh.as_ref()?.sample(u, p, n)
+    }
+
+    /// Whether the sampler chooses no light at all.
+    pub fn is_empty(&self) -> bool {
+        self.table.is_none() && self.bvh.as_ref().is_none_or(LightBvh::is_empty)
     }
 
     /// Number of lights in the light BVH (0 without one).

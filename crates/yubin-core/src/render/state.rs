@@ -16,8 +16,12 @@
 use crate::integrator::wide::{DiffuseSides, RectangleLight, WideTables};
 use crate::integrator::Integrator;
 use crate::interaction::SurfaceInteraction;
-use crate::light::{Emitter, EmitterContext, LightChoice, LightSampler, LightSelection};
+use crate::light::{
+    selection::left_to_bsdf_sampling, Emitter, EmitterContext, LightChoice, LightSampler,
+    LightSelection,
+};
 use crate::sampling::Distribution2D;
+use crate::scene::LightView;
 use crate::Scene;
 
 /// How a render chooses and samples lights: what its integrator asks for.
@@ -58,6 +62,12 @@ pub struct RenderState {
     light_distributions: Vec<Distribution2D>,
     /// Chooses emitters for next-event estimation.
     light_sampler: LightSampler,
+    /// With portals, per world, the chooser among its own emitters
+    /// (`scene/worlds.rs`); empty without.
+    world_light_samplers: Vec<LightSampler>,
+    /// With portals, per world, the ways its next-event estimation looks:
+    /// those into worlds that have a light to choose.
+    light_views: Vec<Vec<LightView>>,
     /// Per BSDF and per emitter, what the path tracer shades and samples
     /// eight at a time.
     wide: WideTables,
@@ -76,19 +86,48 @@ impl RenderState {
         let mut emitters = scene.emitters.clone();
         let light_distributions =
             Self::build_light_distributions(scene, &mut emitters, &compensated);
-        let light_sampler = Self::build_light_sampler(
-            scene,
-            lights.selection,
-            &emitters,
-            &compensated,
-            &light_distributions,
-        );
+        let build = |world| {
+            Self::build_light_sampler(
+                scene,
+                lights.selection,
+                &emitters,
+                &compensated,
+                &light_distributions,
+                world,
+            )
+        };
+        let light_sampler = build(None);
+        let world_light_samplers = match scene.has_portals() {
+            true => (0..scene.worlds.len() as u32)
+                .map(|w| build(Some(w)))
+                .collect(),
+            false => Vec::new(),
+        };
+        let light_views = Self::light_views(scene, &world_light_samplers);
         Self {
             emitters,
             light_distributions,
             light_sampler,
+            world_light_samplers,
+            light_views,
             wide: WideTables::new(scene),
         }
+    }
+
+    /// Per world, the ways next-event estimation looks: at its own
+    /// emitters and through its portal sides that keep angles, each into
+    /// a world whose sampler (in `samplers`) has a light to choose.
+    fn light_views(scene: &Scene, samplers: &[LightSampler]) -> Vec<Vec<LightView>> {
+        let lit = |w: u32| samplers.get(w as usize).is_some_and(|s| !s.is_empty());
+        (0..samplers.len() as u32)
+            .map(|w| {
+                let own = lit(w).then_some(LightView::Own);
+                let through = (scene.lit_sides(w).iter())
+                    .filter(|&&side| scene.portal_of(side).is_some_and(|p| lit(p.to_world)))
+                    .map(|&side| LightView::Through(side));
+                own.into_iter().chain(through).collect()
+            })
+            .collect()
     }
 
     /// The emitters as the render samples them (the scene's, in its order).
@@ -136,6 +175,7 @@ impl RenderState {
         emitters: &[Emitter],
         compensated: &[bool],
         distributions: &[Distribution2D],
+        world: Option<u32>,
     ) -> LightSampler {
         let bounds = scene.bounds();
         let radius = if bounds.is_empty() {
@@ -143,11 +183,17 @@ impl RenderState {
         } else {
             0.5 * bounds.extent().length()
         };
-        LightSampler::new(
+        let left_out = (emitters.iter().enumerate())
+            .map(|(i, e)| {
+                left_to_bsdf_sampling(e, compensated[i])
+                    || world.is_some_and(|w| scene.emitter_world(i as u32) != w)
+            })
+            .collect();
+        LightSampler::leaving_out(
             selection,
             emitters,
             &scene.emitter_options,
-            compensated,
+            left_out,
             &EmitterContext {
                 shapes: &scene.shapes,
                 meshes: &scene.meshes,
@@ -226,6 +272,48 @@ impl<'a> RenderScene<'a> {
     #[inline]
     pub fn pick_light(&self, u: f32, p: glam::Vec3, n: glam::Vec3) -> Option<(LightChoice, f32)> {
         self.state.light_sampler.sample(u, p, n)
+    }
+
+    /// [`RenderScene::pick_light`] among the emitters of world `world`
+    /// alone (all of them in a scene without portals).
+    #[inline]
+    pub fn pick_light_in(
+        &self,
+        world: u32,
+        u: f32,
+        p: glam::Vec3,
+        n: glam::Vec3,
+    ) -> Option<(LightChoice, f32)> {
+        self.light_sampler_of(world).sample(u, p, n)
+    }
+
+    /// Probability that [`RenderScene::pick_light_in`] `world` at (`p`,
+    /// `n`) chooses `light`.
+    #[inline]
+    pub fn light_pmf_in(
+        &self,
+        world: u32,
+        light: LightChoice,
+        p: glam::Vec3,
+        n: glam::Vec3,
+    ) -> f32 {
+        self.light_sampler_of(world).pmf(light, p, n)
+    }
+
+    /// The ways next-event estimation at a vertex in world `world` looks
+    /// (empty without portals; see `scene/worlds.rs`).
+    #[inline]
+    pub fn light_views(&self, world: u32) -> &'a [LightView] {
+        self.state
+            .light_views
+            .get(world as usize)
+            .map_or(&[][..], Vec::as_slice)
+    }
+
+    /// The chooser among world `world`'s emitters.
+    #[inline]
+    fn light_sampler_of(&self, world: u32) -> &'a LightSampler {
+        (self.state.world_light_samplers.get(world as usize)).unwrap_or(&self.state.light_sampler)
     }
 
     /// Probability that [`RenderScene::pick_light`] at (`p`, `n`) chooses

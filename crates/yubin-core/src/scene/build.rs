@@ -117,8 +117,8 @@ pub struct SceneBuilder {
     world_groups: Vec<u32>,
     /// Per emitter, its world (missing ones: world 0).
     emitter_world: Vec<u32>,
-    /// The portal sides: (shape, where it leads).
-    portal_sides: Vec<(u32, crate::scene::PortalSide)>,
+    /// The portal sides: (shape, its world, where it leads).
+    portal_sides: Vec<(u32, u32, crate::scene::PortalSide)>,
 }
 
 impl Default for SceneBuilder {
@@ -205,20 +205,11 @@ impl SceneBuilder {
     /// Joins shapes `a` (in world `world_a`) and `b` (in `world_b`) as the
     /// two sides of a portal; `a_to_b` maps `a`'s space onto `b`'s.
     pub fn add_portal(&mut self, a: u32, world_a: u32, b: u32, world_b: u32, a_to_b: Transform) {
-        self.portal_sides.push((
-            a,
-            crate::scene::PortalSide {
-                to_world: world_b,
-                map: a_to_b,
-            },
-        ));
-        self.portal_sides.push((
-            b,
-            crate::scene::PortalSide {
-                to_world: world_a,
-                map: a_to_b.inverse(),
-            },
-        ));
+        let b_to_a = a_to_b.inverse();
+        self.portal_sides
+            .push((a, world_a, crate::scene::PortalSide::new(world_b, a_to_b)));
+        self.portal_sides
+            .push((b, world_b, crate::scene::PortalSide::new(world_a, b_to_a)));
     }
 
     /// Makes an object editable under its key ([`Scene::parameters`],
@@ -581,14 +572,21 @@ impl SceneBuilder {
         let environments =
             world_environments(&self.emitters, &emitter_world, self.world_groups.len());
         let environment_emitters = environments[0].clone();
-        let worlds = (self.world_groups.iter().zip(environments))
-            .map(|(&group, environment)| crate::scene::World { group, environment })
+        let mut worlds: Vec<_> = (self.world_groups.iter().zip(environments))
+            .map(|(&group, environment)| crate::scene::World {
+                group,
+                environment,
+                lit_sides: Vec::new(),
+            })
             .collect();
         let mut portals = Vec::new();
         if !self.portal_sides.is_empty() {
             portals.resize(self.shapes.len(), None);
-            for (shape, side) in &self.portal_sides {
-                portals[*shape as usize] = Some(*side);
+            for &(shape, world, side) in &self.portal_sides {
+                portals[shape as usize] = Some(side);
+                if side.lit_through {
+                    worlds[world as usize].lit_sides.push(shape);
+                }
             }
         }
         let bsdf_flags: Vec<_> = (self.materials.bsdfs.iter())

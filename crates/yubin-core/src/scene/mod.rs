@@ -33,7 +33,7 @@ mod worlds;
 
 pub use build::{BuildError, SceneBuilder};
 pub use parameters::{EditTarget, Editable, RebuildCounts};
-pub use worlds::{PortalSide, Traced, World, MAX_CROSSINGS};
+pub use worlds::{LightView, PortalSide, Traced, World, MAX_CROSSINGS};
 
 use crate::bsdf::Material;
 use crate::camera::Camera;

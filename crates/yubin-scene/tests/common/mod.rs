@@ -42,8 +42,14 @@ pub fn render_statistics(xml: &str, spp: u32, k: u32) -> (Vec<f64>, Vec<f64>) {
 /// [`render_statistics`] with seeds `seed0..seed0 + k` (two scenes
 /// compared with different seeds give independent estimates).
 pub fn render_statistics_from(xml: &str, spp: u32, k: u32, seed0: u32) -> (Vec<f64>, Vec<f64>) {
+    statistics(&render_images_from(xml, spp, k, seed0))
+}
+
+/// The images of `k` renders (seeds `seed0..seed0 + k`) of the scene
+/// `xml`.
+pub fn render_images_from(xml: &str, spp: u32, k: u32, seed0: u32) -> Vec<Vec<f32>> {
     let loaded = load_scene_str(xml, Path::new("test.xml"), &[]).unwrap_or_else(|e| panic!("{e}"));
-    let images: Vec<Vec<f32>> = (0..k)
+    (0..k)
         .map(|i| {
             render(
                 &loaded.scene,
@@ -57,7 +63,12 @@ pub fn render_statistics_from(xml: &str, spp: u32, k: u32, seed0: u32) -> (Vec<f
             .image
             .data
         })
-        .collect();
+        .collect()
+}
+
+/// Per pixel-channel mean and sample variance over `images`.
+pub fn statistics(images: &[Vec<f32>]) -> (Vec<f64>, Vec<f64>) {
+    let k = images.len();
     let n = images[0].len();
     let mean: Vec<f64> = (0..n)
         .map(|i| images.iter().map(|im| im[i] as f64).sum::<f64>() / k as f64)
