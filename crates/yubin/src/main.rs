@@ -10,6 +10,7 @@
 mod checkpoint;
 mod compare;
 mod denoise;
+mod interrupt;
 mod output;
 mod render;
 mod tonemap;

@@ -2,19 +2,17 @@
 
 use crate::checkpoint;
 use crate::denoise;
+use crate::interrupt::Interrupt;
 use crate::output::{write_output, Display, DisplayArgs};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use signal_hook::consts::{SIGINT, SIGTERM};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 use yubin_core::filter::Filter;
 use yubin_core::integrator::{DenoiserGuides, Guide, PathIntegrator};
-use yubin_core::render::{render, Adaptive, Progressive, RenderOutput, RenderSettings};
+use yubin_core::render::{render_until, Adaptive, Progressive, RenderOutput, RenderSettings};
 use yubin_scene::tonemap::View;
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
 
@@ -307,6 +305,7 @@ fn render_scene(
     let film = &loaded.scene.film;
     let pixels = u64::from(film.crop_size[0]) * u64::from(film.crop_size[1]);
     let t1 = Instant::now();
+    let interrupt = Interrupt::watch()?;
     let (out, total_samples, passes_done) = if passes {
         render_in_passes(&pool, loaded, &settings, args, output, &display)?
     } else {
@@ -316,15 +315,34 @@ fn render_scene(
         }
         let done = AtomicU64::new(0);
         let out = pool.install(|| {
-            render(&loaded.scene, loaded.integrator.as_ref(), &settings, &|n| {
+            let progress = |n| {
                 let d = done.fetch_add(n, Ordering::Relaxed) + n;
                 bar.set_position(d);
-            })
+            };
+            render_until(
+                &loaded.scene,
+                loaded.integrator.as_ref(),
+                &settings,
+                &progress,
+                interrupt.stop(),
+            )
         });
         bar.finish_and_clear();
-        (out, pixels * u64::from(spp), 1)
+        let samples = out.samples;
+        (out, samples, 1)
     };
     let render_time = t1.elapsed();
+    // Stopped by a signal before the end: the samples done are kept.
+    let stopped = interrupt
+        .exit_code()
+        .filter(|_| total_samples < pixels * u64::from(spp) && !passes);
+    if let (Some(code), 0) = (stopped, total_samples) {
+        eprintln!(
+            "interrupted before the first pass finished: nothing written ({} untouched)",
+            output.display()
+        );
+        std::process::exit(code);
+    }
     if out.dropped_samples > 0 {
         eprintln!(
             "warning: {} samples were NaN or infinite and were dropped",
@@ -372,6 +390,14 @@ fn render_scene(
             total_samples as f64 / render_time.as_secs_f64() / 1e6
         );
     }
+    if let Some(code) = stopped {
+        eprintln!(
+            "interrupted after {} of {spp} samples per pixel: wrote {}",
+            total_samples / pixels.max(1),
+            output.display()
+        );
+        std::process::exit(code);
+    }
     Ok(())
 }
 
@@ -409,16 +435,8 @@ fn render_in_passes(
             .restore(state)
             .map_err(|e| anyhow::anyhow!("{}: {e}", resume.display()))?;
     }
-    // SIGINT and SIGTERM end the render after the current pass, saved.
-    let interrupted = [SIGINT, SIGTERM].map(|signal| {
-        let flag = Arc::new(AtomicBool::new(false));
-        signal_hook::flag::register(signal, Arc::clone(&flag)).map(|_| flag)
-    });
-    let [interrupt, terminate] = interrupted;
-    let (interrupt, terminate) = (
-        interrupt.context("cannot watch for SIGINT")?,
-        terminate.context("cannot watch for SIGTERM")?,
-    );
+    // SIGINT and SIGTERM end the render, its pass in flight dropped, saved.
+    let interrupt = Interrupt::watch()?;
     let mut last_checkpoint = Instant::now();
     // The bar follows the time limit, else the samples.
     let bar = match args.time_limit {
@@ -429,7 +447,7 @@ fn render_in_passes(
     let mut longest_pass = Duration::ZERO;
     while !render.finished() {
         let t = Instant::now();
-        pool.install(|| render.pass(&|_| {}));
+        pool.install(|| render.pass_unless(&|_| {}, interrupt.stop()));
         longest_pass = longest_pass.max(t.elapsed());
         let elapsed = start.elapsed();
         match args.time_limit {
@@ -451,10 +469,7 @@ fn render_in_passes(
                 last_checkpoint = Instant::now();
             }
         }
-        let signal = [(&interrupt, 130), (&terminate, 143)]
-            .into_iter()
-            .find(|(flag, _)| flag.load(Ordering::Relaxed));
-        if let Some((_, code)) = signal {
+        if let Some(code) = interrupt.exit_code() {
             bar.finish_and_clear();
             checkpoint::write(&state_path, &fingerprint, &render.state())?;
             write_output(output, &render.output(), display)

@@ -59,6 +59,7 @@ use crate::sampling::AliasTable;
 use crate::{Rgb, Scene};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Light paths per chunk (the unit of parallel work and of progress).
 const CHUNK_PATHS: u64 = 1 << 13;
@@ -107,6 +108,7 @@ impl ParticleTracer {
         scene: &Scene,
         settings: &RenderSettings,
         progress: &(dyn Fn(u64) + Sync),
+        stop: &AtomicBool,
     ) -> RenderOutput {
         let state = RenderState::new(scene, self);
         let scene = &RenderScene::new(scene, &state);
@@ -116,9 +118,13 @@ impl ParticleTracer {
         let total = pixels * u64::from(settings.spp);
         let mut image = SplatImage::new(film);
         let mut dropped = 0;
+        let mut traced = 0;
         if let Some(lights) = PathStart::new(scene) {
             let chunks = total.div_ceil(CHUNK_PATHS);
             for batch in (0..chunks).step_by(CHUNKS_PER_BATCH as usize) {
+                if stop.load(Ordering::Relaxed) {
+                    break;
+                }
                 let end = (batch + CHUNKS_PER_BATCH).min(chunks);
                 // One job per chunk (an indexed range, so that rayon can
                 // split it down to single chunks for whichever thread is free).
@@ -140,13 +146,20 @@ impl ParticleTracer {
                     }
                     dropped += bad;
                 }
+                traced = (end * CHUNK_PATHS).min(total);
             }
+        } else {
+            // No light: every path is black, all traced at once.
+            traced = total;
         }
+        // Stopped early, the image is the estimate of the paths traced.
+        let paths = if traced > 0 { traced } else { total };
         RenderOutput {
-            image: image.to_framebuffer(if total > 0 { 1.0 / total as f64 } else { 0.0 }),
+            image: image.to_framebuffer(if paths > 0 { 1.0 / paths as f64 } else { 0.0 }),
             layers: Vec::new(),
             dropped_samples: dropped,
             estimated_error: None,
+            samples: traced,
         }
     }
 

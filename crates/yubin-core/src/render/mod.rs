@@ -21,6 +21,7 @@ use crate::sampler::SampleStream;
 use crate::{Rgb, Scene};
 use glam::Vec2;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Side of a render tile in pixels.
 pub const TILE_SIZE: u32 = 16;
@@ -44,12 +45,60 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderOutput {
+    render_until(
+        scene,
+        integrator,
+        settings,
+        progress,
+        &AtomicBool::new(false),
+    )
+}
+
+/// [`render`], stopped early once `stop` is set (a signal, a user's
+/// cancel): the image is then the average of the samples of the passes
+/// finished before ([`RenderOutput::samples`] says how many; the pass
+/// in flight is dropped, so every pixel has the same count). The render
+/// runs in passes of growing size (1, 2, 4, … samples per pixel, at most
+/// a sixteenth of the whole), so that an early stop keeps an image and a
+/// late one loses at most a sixteenth of the work.
+pub fn render_until(
+    scene: &Scene,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+    stop: &AtomicBool,
+) -> RenderOutput {
     if let Some(tracer) = integrator.particle_tracer() {
-        return tracer.render(scene, settings, progress);
+        return tracer.render(scene, settings, progress, stop);
     }
-    let mut passes = Progressive::new(scene, integrator, *settings, settings.spp);
-    passes.pass(progress);
+    let mut passes = Progressive::new(scene, integrator, *settings, 1);
+    passes.pass_spp = PassSize::Growing {
+        largest: (settings.spp / 16).max(1),
+    };
+    while !passes.finished() && passes.pass_unless(progress, stop) {}
     passes.output()
+}
+
+/// How many samples per pixel each pass of a [`Progressive`] render takes.
+#[derive(Clone, Copy, Debug)]
+enum PassSize {
+    /// The same number every pass (the last may take fewer).
+    Fixed(u32),
+    /// 1, 2, 4, … up to `largest`, then `largest` (the last may take
+    /// fewer).
+    Growing { largest: u32 },
+}
+
+impl PassSize {
+    /// The samples per pixel of pass `pass` (from 0).
+    fn of(self, pass: u32) -> u32 {
+        match self {
+            PassSize::Fixed(n) => n,
+            PassSize::Growing { largest } => {
+                1u32.checked_shl(pass).unwrap_or(u32::MAX).min(largest)
+            }
+        }
+    }
 }
 
 /// A render in passes over the whole image (for progressive and
@@ -67,7 +116,7 @@ pub struct Progressive<'a> {
     render_state: RenderState,
     integrator: &'a dyn Integrator,
     settings: RenderSettings,
-    pass_spp: u32,
+    pass_spp: PassSize,
     filter: FilterTable,
     channels: usize,
     /// Per pixel: the weighted sums of each channel, then the weight.
@@ -171,7 +220,7 @@ impl<'a> Progressive<'a> {
             render_state: RenderState::new(scene, integrator),
             integrator,
             settings,
-            pass_spp: pass_spp.max(1),
+            pass_spp: PassSize::Fixed(pass_spp.max(1)),
             filter: FilterTable::new(&scene.film.filter),
             channels,
             sums: vec![0.0; crop[0] as usize * crop[1] as usize * (channels + 1)],
@@ -315,13 +364,20 @@ impl<'a> Progressive<'a> {
     /// Renders the next pass (nothing once finished); `progress` as in
     /// [`render`].
     pub fn pass(&mut self, progress: &(dyn Fn(u64) + Sync)) {
+        self.pass_unless(progress, &AtomicBool::new(false));
+    }
+
+    /// [`Progressive::pass`], given up once `stop` is set: the tiles not
+    /// yet begun are skipped and the pass's samples dropped, so the image
+    /// stays the average of whole passes. False when it was given up.
+    pub fn pass_unless(&mut self, progress: &(dyn Fn(u64) + Sync), stop: &AtomicBool) -> bool {
         if self.finished() {
-            return;
+            return true;
         }
         let samples = self.done
             ..self
                 .done
-                .saturating_add(self.pass_spp)
+                .saturating_add(self.pass_spp.of(self.passes))
                 .min(self.settings.spp);
         let crop = self.scene.film.crop_size;
         let active = (!self.active.is_empty()).then_some(self.active.as_slice());
@@ -330,10 +386,13 @@ impl<'a> Progressive<'a> {
         // runs of tiles it cannot give away once started, which can leave
         // a thread idle at the end of a render while another finishes its
         // run.
-        let results: Vec<TileResult> = tiles(crop)
+        let results: Option<Vec<TileResult>> = tiles(crop)
             .par_iter()
             .with_max_len(1)
             .map(|&tile| {
+                if stop.load(Ordering::Relaxed) {
+                    return None;
+                }
                 let job = TileJob {
                     scene,
                     integrator: self.integrator,
@@ -349,9 +408,12 @@ impl<'a> Progressive<'a> {
                         * u64::from(tile.y1 - tile.y0)
                         * u64::from(samples.end - samples.start),
                 );
-                r
+                Some(r)
             })
             .collect();
+        let Some(results) = results else {
+            return false;
+        };
         for r in &results {
             r.buffer.merge_into(&mut self.sums, crop);
             self.dropped += r.dropped;
@@ -365,6 +427,7 @@ impl<'a> Progressive<'a> {
         self.done = samples.end;
         self.passes += 1;
         self.update_active();
+        true
     }
 
     /// The image so far: the average of the samples taken.
@@ -403,6 +466,7 @@ impl<'a> Progressive<'a> {
             layers,
             dropped_samples: self.dropped,
             estimated_error: self.estimated_error(),
+            samples: self.total_samples(),
         }
     }
 }
@@ -416,6 +480,9 @@ pub struct RenderOutput {
     pub layers: Vec<Layer>,
     /// Samples discarded because they were NaN or infinite.
     pub dropped_samples: u64,
+    /// Samples taken over the whole image (light paths traced, for a
+    /// particle tracer): fewer than asked when the render was stopped.
+    pub samples: u64,
     /// The estimated relative error of the image
     /// ([`Progressive::estimated_error`]), when known.
     pub estimated_error: Option<f32>,
