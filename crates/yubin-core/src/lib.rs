@@ -15,6 +15,7 @@ pub mod filter;
 pub mod integrator;
 pub mod interaction;
 pub mod light;
+pub mod limits;
 pub mod material;
 pub mod math;
 pub mod medium;

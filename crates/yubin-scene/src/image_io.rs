@@ -44,6 +44,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use yubin_core::limits::Limit;
 
 use crate::error::SceneError;
 use yubin_core::texture::image::ImageData;
@@ -226,10 +227,12 @@ fn read_pfm(path: &Path) -> Result<Image, SceneError> {
     let (Some(width), Some(height)) = (parse(&tokens[1]), parse(&tokens[2])) else {
         return Err(bad("bad size"));
     };
+    check_texels(path, width, height)?;
     let scale: f32 = tokens[3].parse().map_err(|_| bad("bad scale"))?;
     let count = width * height * channels;
-    let body = bytes
-        .get(pos..pos + 4 * count)
+    let body = pos
+        .checked_add(4 * count)
+        .and_then(|end| bytes.get(pos..end))
         .ok_or_else(|| bad("truncated data"))?;
     let mut image = Image::new(width, height, channels);
     for (i, chunk) in body.chunks_exact(4).enumerate() {
@@ -256,8 +259,22 @@ fn has_exr_magic(path: &Path) -> Result<bool, SceneError> {
     Ok(n == 4 && magic == [0x76, 0x2f, 0x31, 0x01])
 }
 
+/// Refuses an image of `width` × `height` texels beyond
+/// [`Limit::TexturePixels`] before it is decoded.
+fn check_texels(path: &Path, width: usize, height: usize) -> Result<(), SceneError> {
+    let texels = (width as u64).saturating_mul(height as u64);
+    Limit::TexturePixels
+        .check(texels, || format!("the image of {width} × {height} texels"))
+        .map_err(|e| SceneError::file(path, e))
+}
+
 /// Reads the `R`,`G`,`B`(,`A`) or `Y`(,`A`) channels of the first layer.
 fn read_exr(path: &Path) -> Result<Image, SceneError> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        check_texels(path, size.width(), size.height())?;
+    }
     let exr_image =
         exr::prelude::read_first_flat_layer_from_file(path).map_err(|e| exr_error(path, e))?;
     let layer = &exr_image.layer_data;
@@ -313,6 +330,20 @@ fn decode_with_image_crate(path: &Path) -> Result<image::DynamicImage, SceneErro
             "unsupported image format (supported: exr, hdr, pfm, png, jpg/jpeg, bmp, tga)",
         ));
     }
+    // The header's size, checked before anything is decoded; the decoder's
+    // own allocation cap (512 MiB by default) is the texel limit's instead.
+    let mut reader = reader;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(Limit::TexturePixels.get().saturating_mul(16));
+    reader.limits(limits);
+    let reopened = image::ImageReader::open(path)
+        .map_err(|e| io_error(path, e))?
+        .with_guessed_format()
+        .map_err(|e| io_error(path, e))?;
+    let (width, height) = reopened
+        .into_dimensions()
+        .map_err(|e| SceneError::file(path, format!("cannot decode image: {e}")))?;
+    check_texels(path, width as usize, height as usize)?;
     reader
         .decode()
         .map_err(|e| SceneError::file(path, format!("cannot decode image: {e}")))

@@ -75,7 +75,11 @@ pub fn parse_vol(bytes: &[u8]) -> Result<Grid, String> {
         .iter()
         .try_fold(channels as u64, |acc, &d| acc.checked_mul(d as u64))
         .filter(|&n| n <= (usize::MAX / 4) as u64)
-        .ok_or_else(|| format!("resolution {dims:?} is too large"))? as usize;
+        .ok_or_else(|| format!("resolution {dims:?} is too large"))?;
+    yubin_core::limits::Limit::GridCells.check(count, || {
+        format!("the grid of {dims:?} × {channels} channels = {count} values")
+    })?;
+    let count = count as usize;
     let data_bytes = &bytes[HEADER..];
     if data_bytes.len() != count * 4 {
         return Err(format!(

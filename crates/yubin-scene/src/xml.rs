@@ -96,9 +96,6 @@ use crate::error::{Location, SceneError};
 /// The version assumed when a file has no `version` attribute.
 const CURRENT_VERSION: (u32, u32, u32) = (3, 0, 0);
 
-/// How deep includes may nest before we call it a cycle we failed to spot.
-const MAX_INCLUDE_DEPTH: usize = 64;
-
 /// Reads and parses the scene file at `path`. `defines` are `-D name=value`
 /// pairs; they take precedence over the scene's `<default>`s.
 pub fn parse_file(path: &Path, defines: &[(String, String)]) -> Result<SceneDesc, SceneError> {
@@ -411,9 +408,15 @@ impl Parser {
                 format!("include cycle: \"{}\" includes itself", path.display()),
             ));
         }
-        if self.include_stack.len() > MAX_INCLUDE_DEPTH {
-            return Err(SceneError::at(loc, "includes nested too deeply"));
-        }
+        yubin_core::limits::Limit::IncludeDepth
+            .check(self.include_stack.len() as u64, || {
+                format!(
+                    "\"{}\", included {} files deep,",
+                    path.display(),
+                    self.include_stack.len()
+                )
+            })
+            .map_err(|e| SceneError::at(loc, e))?;
         self.include_stack.push(path.to_path_buf());
         Ok(())
     }

@@ -2,7 +2,7 @@
 //! through a view), always through a temporary file that is renamed into
 //! place.
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use std::path::Path;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -134,8 +134,26 @@ fn to_image(fb: &Framebuffer) -> Image {
 
 /// Writes the RGB image and, for EXR, every extra layer the integrator made,
 /// each channel named `layer.suffix` as the integrator names it; a PNG or
-/// JPEG shows the image through `display` (EXR stays scene-linear).
+/// JPEG shows the image through `display` (EXR stays scene-linear). The
+/// file is written whole to a temporary name and renamed into place: a
+/// write that fails (a full disk, a file size limit) leaves the previous
+/// file as it was, and the error says so.
 pub fn write_output(path: &Path, out: &RenderOutput, display: &Display) -> Result<()> {
+    let existed = path.exists();
+    write_layers(path, out, display).with_context(|| {
+        if existed {
+            format!(
+                "cannot write {} (the previous {} is untouched)",
+                path.display(),
+                path.display()
+            )
+        } else {
+            format!("cannot write {}", path.display())
+        }
+    })
+}
+
+fn write_layers(path: &Path, out: &RenderOutput, display: &Display) -> Result<()> {
     let rgb = to_image(&out.image.select_channels(0..3));
     let mut offset = 3;
     let layers: Vec<Image> = out

@@ -12,7 +12,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 use yubin_core::filter::Filter;
 use yubin_core::integrator::{DenoiserGuides, Guide, PathIntegrator};
-use yubin_core::render::{render_until, Adaptive, Progressive, RenderOutput, RenderSettings};
+use yubin_core::limits::{self, Limit};
+use yubin_core::render::{
+    render_until, Adaptive, NonFiniteSample, Progressive, RenderOutput, RenderSettings,
+};
 use yubin_scene::tonemap::View;
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
 
@@ -71,6 +74,17 @@ pub struct RenderArgs {
     /// Scene parameter, overriding a <default>: -D spp=64.
     #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
     define: Vec<(String, String)>,
+    /// Treat a NaN or infinite sample as an error: list where each came
+    /// from (pixel and sample index, the first 100), write the image
+    /// without them and exit with 1.
+    #[arg(long)]
+    strict: bool,
+    /// Raise (or lower) a limit on what a scene may ask for: film-pixels
+    /// (default 268435456, a 16384² film), texture-pixels (2^30 texels),
+    /// grid-cells (2^32 volume grid values), include-depth (64).
+    /// Repeatable.
+    #[arg(long, value_name = "NAME=N", value_parser = parse_limit)]
+    limit: Vec<(Limit, u64)>,
     /// No progress bar and no summary.
     #[arg(short, long)]
     quiet: bool,
@@ -210,8 +224,28 @@ fn parse_define(s: &str) -> Result<(String, String), String> {
     }
 }
 
+fn parse_limit(s: &str) -> Result<(Limit, u64), String> {
+    let names = || {
+        let all: Vec<&str> = limits::ALL.iter().map(|l| l.name()).collect();
+        all.join(", ")
+    };
+    let (name, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=N, got \"{s}\" (limits: {})", names()))?;
+    let limit = Limit::named(name.trim())
+        .ok_or_else(|| format!("unknown limit \"{name}\" (limits: {})", names()))?;
+    let value = value
+        .trim()
+        .parse()
+        .map_err(|_| format!("--limit {name}: \"{value}\" is not a whole number"))?;
+    Ok((limit, value))
+}
+
 /// Loads, renders and writes.
 pub fn run(args: RenderArgs) -> Result<()> {
+    for &(limit, value) in &args.limit {
+        limit.set(value);
+    }
     if args.frames.is_some() || args.video.is_some() {
         return animate::run(&args);
     }
@@ -289,6 +323,16 @@ fn render_scene(
     if args.pass_spp == 0 {
         bail!("--pass-spp must be at least 1");
     }
+    let film = &loaded.scene.film;
+    let [w, h] = film.crop_size.map(u64::from);
+    Limit::FilmPixels
+        .check(w * h, || {
+            format!("the film of {w} × {h} = {} pixels", w * h)
+        })
+        .map_err(|e| match &args.scene {
+            Some(scene) => anyhow::anyhow!("{}: {e}", scene.display()),
+            None => anyhow::anyhow!(e),
+        })?;
     let display = args.display.resolve()?;
     let settings = RenderSettings {
         spp,
@@ -343,18 +387,12 @@ fn render_scene(
         );
         std::process::exit(code);
     }
-    if out.dropped_samples > 0 {
-        eprintln!(
-            "warning: {} samples were NaN or infinite and were dropped",
-            out.dropped_samples
-        );
-    }
+    report_nonfinite(&out, args.strict);
     let mut out = out;
     if args.denoise {
         denoise::denoise(&mut out)?;
     }
-    write_output(output, &out, &display)
-        .with_context(|| format!("cannot write {}", output.display()))?;
+    write_output(output, &out, &display)?;
     if !args.quiet {
         if let (View::Ocio(p), false) = (&display.view, output_is_exr(output)) {
             eprintln!("{}: shown through OCIO {}", output.display(), p.description);
@@ -390,6 +428,13 @@ fn render_scene(
             total_samples as f64 / render_time.as_secs_f64() / 1e6
         );
     }
+    if args.strict && out.dropped_samples > 0 {
+        bail!(
+            "--strict: {} samples were NaN or infinite ({} written without them)",
+            out.dropped_samples,
+            output.display()
+        );
+    }
     if let Some(code) = stopped {
         eprintln!(
             "interrupted after {} of {spp} samples per pixel: wrote {}",
@@ -399,6 +444,48 @@ fn render_scene(
         std::process::exit(code);
     }
     Ok(())
+}
+
+/// Says how many samples came out NaN or infinite (dropped from the
+/// image) and where the first did, so that `--crop` can render it again;
+/// `strict` lists every one kept.
+fn report_nonfinite(out: &RenderOutput, strict: bool) {
+    let dropped = out.dropped_samples;
+    if dropped == 0 {
+        return;
+    }
+    let pixels = match out.nonfinite.pixels {
+        0 => String::new(),
+        1 => " in 1 pixel".to_string(),
+        n => format!(" in {n} pixels"),
+    };
+    let again = |s: &NonFiniteSample| {
+        format!(
+            "pixel ({}, {}) sample {} (render it again with --crop {},{},1,1 --spp {})",
+            s.x,
+            s.y,
+            s.index,
+            s.x,
+            s.y,
+            s.index + 1
+        )
+    };
+    match out.nonfinite.first.first() {
+        Some(first) => eprintln!(
+            "warning: {dropped} samples{pixels} were NaN or infinite and were dropped; the first: {}",
+            again(first)
+        ),
+        None => eprintln!("warning: {dropped} light paths were NaN or infinite and were dropped"),
+    }
+    if strict {
+        for s in &out.nonfinite.first {
+            eprintln!("  {}", again(s));
+        }
+        let listed = out.nonfinite.first.len() as u64;
+        if dropped > listed && listed > 0 {
+            eprintln!("  and {} more", dropped - listed);
+        }
+    }
 }
 
 /// Renders pass after pass until the samples are taken or the next pass
@@ -458,8 +545,7 @@ fn render_in_passes(
         }
         if let Some(every) = args.progressive {
             if last_write.elapsed() >= every && !render.finished() {
-                write_output(output, &render.output(), display)
-                    .with_context(|| format!("cannot write {}", output.display()))?;
+                write_output(output, &render.output(), display)?;
                 last_write = Instant::now();
             }
         }
@@ -472,8 +558,7 @@ fn render_in_passes(
         if let Some(code) = interrupt.exit_code() {
             bar.finish_and_clear();
             checkpoint::write(&state_path, &fingerprint, &render.state())?;
-            write_output(output, &render.output(), display)
-                .with_context(|| format!("cannot write {}", output.display()))?;
+            write_output(output, &render.output(), display)?;
             eprintln!(
                 "interrupted after {} passes: wrote {} and {} (continue with --resume {})",
                 render.passes_done(),

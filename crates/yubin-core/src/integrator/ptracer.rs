@@ -158,6 +158,7 @@ impl ParticleTracer {
             image: image.to_framebuffer(if paths > 0 { 1.0 / paths as f64 } else { 0.0 }),
             layers: Vec::new(),
             dropped_samples: dropped,
+            nonfinite: Default::default(),
             estimated_error: None,
             samples: traced,
         }

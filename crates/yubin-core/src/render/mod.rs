@@ -125,6 +125,11 @@ pub struct Progressive<'a> {
     done: u32,
     passes: u32,
     dropped: u64,
+    /// The first [`NONFINITE_KEPT`] non-finite samples, in tile order.
+    nonfinite: Vec<NonFiniteSample>,
+    /// Per pixel of the crop window, its non-finite samples (empty until
+    /// one).
+    nonfinite_counts: Vec<u32>,
     /// Adaptive sampling, when asked for.
     adaptive: Option<Adaptive>,
     /// Per pixel: the luminance sums of its even and odd samples.
@@ -227,6 +232,8 @@ impl<'a> Progressive<'a> {
             done: 0,
             passes: 0,
             dropped: 0,
+            nonfinite: Vec::new(),
+            nonfinite_counts: Vec::new(),
             adaptive: None,
             halves: vec![Halves::default(); crop[0] as usize * crop[1] as usize],
             active: Vec::new(),
@@ -417,6 +424,7 @@ impl<'a> Progressive<'a> {
         for r in &results {
             r.buffer.merge_into(&mut self.sums, crop);
             self.dropped += r.dropped;
+            self.count_nonfinite(r);
             for (y, row) in (r.tile.y0..r.tile.y1).zip(r.halves.chunks(r.tile.width())) {
                 let start = y as usize * crop[0] as usize + r.tile.x0 as usize;
                 for (h, add) in self.halves[start..start + row.len()].iter_mut().zip(row) {
@@ -430,6 +438,28 @@ impl<'a> Progressive<'a> {
         true
     }
 
+    /// Adds the non-finite samples of tile result `r`.
+    fn count_nonfinite(&mut self, r: &TileResult) {
+        if r.dropped == 0 {
+            return;
+        }
+        let room = NONFINITE_KEPT - self.nonfinite.len().min(NONFINITE_KEPT);
+        self.nonfinite.extend(r.nonfinite.iter().take(room));
+        let width = self.scene.film.crop_size[0] as usize;
+        if self.nonfinite_counts.is_empty() {
+            self.nonfinite_counts = vec![0; self.halves.len()];
+        }
+        for (y, row) in (r.tile.y0..r.tile.y1).zip(r.nonfinite_counts.chunks(r.tile.width())) {
+            let start = y as usize * width + r.tile.x0 as usize;
+            for (count, add) in self.nonfinite_counts[start..start + row.len()]
+                .iter_mut()
+                .zip(row)
+            {
+                *count += add;
+            }
+        }
+    }
+
     /// The image so far: the average of the samples taken.
     pub fn output(&self) -> RenderOutput {
         let crop = self.scene.film.crop_size;
@@ -440,7 +470,12 @@ impl<'a> Progressive<'a> {
             .flat_map(|px| {
                 let w = px[channels];
                 let inv = if w > 0.0 { 1.0 / w } else { 0.0 };
-                px[..channels].iter().map(move |v| v * inv)
+                // Finite samples can still sum past f32's range (or to
+                // ∞ − ∞ under a filter's negative lobes): the image holds
+                // no NaN or infinity, whatever the sums.
+                px[..channels]
+                    .iter()
+                    .map(move |v| Some(v * inv).filter(|v| v.is_finite()).unwrap_or(0.0))
             })
             .collect();
         let mut layers = self.integrator.extra_layers();
@@ -465,10 +500,41 @@ impl<'a> Progressive<'a> {
             },
             layers,
             dropped_samples: self.dropped,
+            nonfinite: NonFinite {
+                pixels: self.nonfinite_counts.iter().filter(|&&c| c > 0).count() as u64,
+                first: self.nonfinite.clone(),
+            },
             estimated_error: self.estimated_error(),
             samples: self.total_samples(),
         }
     }
+}
+
+/// At most this many non-finite samples are kept by place.
+pub const NONFINITE_KEPT: usize = 100;
+
+/// A sample that came out NaN or infinite: its pixel (in full-image
+/// coordinates) and index, which `--crop x,y,1,1 --spp index+1` renders
+/// again (every sample depends only on pixel, index and seed).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NonFiniteSample {
+    /// Pixel column.
+    pub x: u32,
+    /// Pixel row.
+    pub y: u32,
+    /// Sample index within the pixel.
+    pub index: u32,
+}
+
+/// Where a render's non-finite samples came from.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct NonFinite {
+    /// Pixels with at least one (none for a particle tracer, whose
+    /// samples are light paths).
+    pub pixels: u64,
+    /// The first [`NONFINITE_KEPT`] of them, in the order tiles are
+    /// merged (the same on any thread count).
+    pub first: Vec<NonFiniteSample>,
 }
 
 /// What [`render`] produces.
@@ -480,6 +546,8 @@ pub struct RenderOutput {
     pub layers: Vec<Layer>,
     /// Samples discarded because they were NaN or infinite.
     pub dropped_samples: u64,
+    /// Where they came from.
+    pub nonfinite: NonFinite,
     /// Samples taken over the whole image (light paths traced, for a
     /// particle tracer): fewer than asked when the render was stopped.
     pub samples: u64,
@@ -523,6 +591,9 @@ struct TileResult {
     tile: Tile,
     buffer: TileBuffer,
     dropped: u64,
+    nonfinite: Vec<NonFiniteSample>,
+    /// Per pixel (row by row), its non-finite samples (empty without).
+    nonfinite_counts: Vec<u32>,
     halves: Vec<Halves>,
 }
 
@@ -538,7 +609,7 @@ impl TileJob<'_> {
             buffer: TileBuffer::new(tile, self.filter, self.channels),
             // One buffer per tile (not per sample), sized to the integrator.
             values: vec![0.0f32; self.channels * BATCH],
-            dropped: 0,
+            bad: TileNonFinite::default(),
             halves: vec![Halves::default(); tile.width() * tile.height()],
             tile,
         };
@@ -576,8 +647,29 @@ impl TileJob<'_> {
         TileResult {
             tile,
             buffer: out.buffer,
-            dropped: out.dropped,
+            dropped: out.bad.dropped,
+            nonfinite: out.bad.first,
+            nonfinite_counts: out.bad.counts,
             halves: out.halves,
+        }
+    }
+
+    /// Counts the non-finite sample at `spot` (dropped from the image).
+    #[inline(never)]
+    fn count_nonfinite(
+        &self,
+        bad: &mut TileNonFinite,
+        tile: Tile,
+        (x, y, index, _): (u32, u32, u32, Vec2),
+    ) {
+        bad.dropped += 1;
+        if bad.counts.is_empty() {
+            bad.counts = vec![0; tile.width() * tile.height()];
+        }
+        bad.counts[(y - tile.y0) as usize * tile.width() + (x - tile.x0) as usize] += 1;
+        if bad.first.len() < NONFINITE_KEPT {
+            let (x, y) = self.full_image_pixel(x, y);
+            bad.first.push(NonFiniteSample { x, y, index });
         }
     }
 
@@ -662,7 +754,7 @@ impl TileJob<'_> {
                 .enumerate()
             {
                 if !values.iter().all(|v| v.is_finite()) {
-                    out.dropped += 1;
+                    self.count_nonfinite(&mut out.bad, out.tile, *spot);
                     continue;
                 }
                 match &footprints {
@@ -734,6 +826,17 @@ struct TileOutput {
     buffer: TileBuffer,
     /// Room for one batch's values.
     values: Vec<f32>,
-    dropped: u64,
+    /// Its non-finite samples.
+    bad: TileNonFinite,
     halves: Vec<Halves>,
+}
+
+/// A tile's non-finite samples.
+#[derive(Default)]
+struct TileNonFinite {
+    dropped: u64,
+    /// The first [`NONFINITE_KEPT`] of them.
+    first: Vec<NonFiniteSample>,
+    /// Per pixel (row by row), their count (empty until one).
+    counts: Vec<u32>,
 }
