@@ -427,21 +427,27 @@ impl TileBuffer {
     /// Adds this buffer into `sums` (crop-sized, `channels + 1` per pixel).
     pub fn merge_into(&self, sums: &mut [f32], crop: [u32; 2]) {
         let stride = self.channels + 1;
+        // The columns of the buffer inside the crop window, the same on
+        // every row: each row's run is added as one slice (vectorized).
+        let x0 = (-self.origin[0]).clamp(0, self.size[0] as i64) as usize;
+        let x1 = (crop[0] as i64 - self.origin[0]).clamp(x0 as i64, self.size[0] as i64) as usize;
+        if x0 == x1 {
+            return;
+        }
         for y in 0..self.size[1] {
             let gy = self.origin[1] + y as i64;
             if gy < 0 || gy >= crop[1] as i64 {
                 continue;
             }
-            for x in 0..self.size[0] {
-                let gx = self.origin[0] + x as i64;
-                if gx < 0 || gx >= crop[0] as i64 {
-                    continue;
-                }
-                let src = (y * self.size[0] + x) * stride;
-                let dst = (gy as usize * crop[0] as usize + gx as usize) * stride;
-                for c in 0..stride {
-                    sums[dst + c] += self.data[src + c];
-                }
+            let src = (y * self.size[0] + x0) * stride;
+            let gx0 = (self.origin[0] + x0 as i64) as usize;
+            let dst = (gy as usize * crop[0] as usize + gx0) * stride;
+            let len = (x1 - x0) * stride;
+            for (d, s) in sums[dst..dst + len]
+                .iter_mut()
+                .zip(&self.data[src..src + len])
+            {
+                *d += s;
             }
         }
     }

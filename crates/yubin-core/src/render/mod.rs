@@ -59,8 +59,10 @@ pub fn render(
 /// finished before ([`RenderOutput::samples`] says how many; the pass
 /// in flight is dropped, so every pixel has the same count). The render
 /// runs in passes of growing size (1, 2, 4, … samples per pixel, at most
-/// a sixteenth of the whole), so that an early stop keeps an image and a
-/// late one loses at most a sixteenth of the work.
+/// a sixteenth of the whole or 8, whichever is more), so that an early
+/// stop keeps an image and a late one loses little of the work; the
+/// passes cost 0.6–0.8 % more instructions than one pass at 64 spp
+/// (cachegrind, `scenes/suite` rough and mesh).
 pub fn render_until(
     scene: &Scene,
     integrator: &dyn Integrator,
@@ -73,7 +75,7 @@ pub fn render_until(
     }
     let mut passes = Progressive::new(scene, integrator, *settings, 1);
     passes.pass_spp = PassSize::Growing {
-        largest: (settings.spp / 16).max(1),
+        largest: (settings.spp / 16).max(8),
     };
     while !passes.finished() && passes.pass_unless(progress, stop) {}
     passes.output()

@@ -235,19 +235,16 @@ impl PixelStreams {
             pairs: [Vec2::ZERO; 8],
         };
         if let Sampler::Independent(_) = self.sampler {
-            let mut keys = [0u32; 8];
-            for (i, k) in keys.iter_mut().enumerate() {
-                *k = independent::sample_key(self.key, first.wrapping_add(i as u32));
-            }
-            let (mut xs, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
-            for ((x, y), &k) in xs.iter_mut().zip(&mut ys).zip(&keys) {
-                (*x, *y) = (independent::sample(k, 0), independent::sample(k, 1));
-            }
-            for (i, (stream, pair)) in out.streams.iter_mut().zip(&mut out.pairs).enumerate() {
-                stream.index = first.wrapping_add(i as u32);
-                stream.sample_key = keys[i];
-                stream.dim = 2;
-                *pair = Vec2::new(xs[i], ys[i]);
+            // Eight side by side (vectorized), fewer one by one: a render
+            // in passes of one sample per pixel asks for one at a time.
+            if n == 8 {
+                self.independent_pairs::<8>(first, &mut out.streams, &mut out.pairs);
+            } else {
+                for i in 0..n {
+                    let at = first.wrapping_add(i as u32);
+                    let (stream, pair) = (&mut out.streams[i..=i], &mut out.pairs[i..=i]);
+                    self.independent_pairs::<1>(at, stream, pair);
+                }
             }
             return out;
         }
@@ -256,6 +253,32 @@ impl PixelStreams {
             *pair = stream.next_2d();
         }
         out
+    }
+
+    /// The independent sampler's `N` streams (from `streams`' copies of
+    /// the pixel's) and pairs from sample `first`, their hashes computed
+    /// side by side.
+    #[inline(always)]
+    fn independent_pairs<const N: usize>(
+        &self,
+        first: u32,
+        streams: &mut [SampleStream],
+        pairs: &mut [Vec2],
+    ) {
+        let mut keys = [0u32; N];
+        for (i, k) in keys.iter_mut().enumerate() {
+            *k = independent::sample_key(self.key, first.wrapping_add(i as u32));
+        }
+        let (mut xs, mut ys) = ([0.0f32; N], [0.0f32; N]);
+        for ((x, y), &k) in xs.iter_mut().zip(&mut ys).zip(&keys) {
+            (*x, *y) = (independent::sample(k, 0), independent::sample(k, 1));
+        }
+        for (i, (stream, pair)) in streams[..N].iter_mut().zip(pairs).enumerate() {
+            stream.index = first.wrapping_add(i as u32);
+            stream.sample_key = keys[i];
+            stream.dim = 2;
+            *pair = Vec2::new(xs[i], ys[i]);
+        }
     }
 
     /// The stream of the pixel's sample `index`.
