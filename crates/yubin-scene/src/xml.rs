@@ -935,11 +935,24 @@ fn read_text(path: &Path) -> Result<String, SceneError> {
     })
 }
 
+/// Elements may nest this deep (Mitsuba's scenes nest a dozen levels;
+/// at 1000, reading the objects overflowed a 2 MiB stack):
+/// the XML parser, and the reading of objects after it, recurse once per
+/// level, and a file of a million nested tags would overflow the stack.
+const MAX_NESTING: usize = 256;
+
 /// Parses XML text; a syntax error becomes an error at its line.
 fn parse_document<'input>(
     text: &'input str,
     file: &Arc<PathBuf>,
 ) -> Result<Document<'input>, SceneError> {
+    if let Some(offset) = too_deep(text.as_bytes(), MAX_NESTING) {
+        let row = text[..offset].bytes().filter(|&b| b == b'\n').count() as u32 + 1;
+        return Err(SceneError::at(
+            &Location::new(file.clone(), row),
+            format!("elements nested more than {MAX_NESTING} deep"),
+        ));
+    }
     let options = roxmltree::ParsingOptions {
         allow_dtd: true,
         ..Default::default()
@@ -950,6 +963,60 @@ fn parse_document<'input>(
             format!("malformed XML: {e}"),
         )
     })
+}
+
+/// The offset of the first tag nested deeper than `limit` in XML text,
+/// if any: opening tags counted against closing ones, comments, CDATA,
+/// processing instructions and declarations skipped, quoted attribute
+/// values (which may hold `/>`) read through. Malformed text is left to
+/// the parser.
+fn too_deep(text: &[u8], limit: usize) -> Option<usize> {
+    let find = |from: usize, what: &[u8]| {
+        (text.get(from..)?.windows(what.len()))
+            .position(|w| w == what)
+            .map(|p| from + p + what.len())
+    };
+    let (mut depth, mut i) = (0usize, 0usize);
+    while let Some(p) = text.get(i..)?.iter().position(|&b| b == b'<') {
+        let at = i + p;
+        let rest = &text[at..];
+        i = if rest.starts_with(b"<!--") {
+            find(at, b"-->")?
+        } else if rest.starts_with(b"<![CDATA[") {
+            find(at, b"]]>")?
+        } else if rest.starts_with(b"<?") {
+            find(at, b"?>")?
+        } else if rest.starts_with(b"<!") || rest.starts_with(b"</") {
+            depth = depth.saturating_sub(usize::from(rest[1] == b'/'));
+            find(at, b">")?
+        } else {
+            let (end, self_closing) = tag_end(text, at)?;
+            if !self_closing {
+                depth += 1;
+                if depth > limit {
+                    return Some(at);
+                }
+            }
+            end
+        };
+    }
+    None
+}
+
+/// Where the opening tag at `start` ends (past its `>`), and whether it
+/// closes itself (`/>`); quoted attribute values are skipped whole.
+fn tag_end(text: &[u8], start: usize) -> Option<(usize, bool)> {
+    let mut quote = None;
+    for (i, &b) in text.iter().enumerate().skip(start + 1) {
+        match (quote, b) {
+            (Some(q), _) if b == q => quote = None,
+            (Some(_), _) => {}
+            (None, b'"' | b'\'') => quote = Some(b),
+            (None, b'>') => return Some((i + 1, text[i - 1] == b'/')),
+            _ => {}
+        }
+    }
+    None
 }
 
 /// The `version` attribute of a root element, if it has one.
@@ -1667,6 +1734,32 @@ mod tests {
         assert!(matches!(err, SceneError::NotFound { .. }), "{err}");
         assert!(err.to_string().contains("broken.xml:2: "), "{err}");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn deep_nesting_is_an_error_not_a_stack_overflow() {
+        let n = 200_000;
+        let text = format!(
+            "<scene version=\"3.0.0\">\n<shape type=\"sphere\">{}<bsdf type=\"diffuse\"/>{}</shape></scene>",
+            "<bsdf type=\"twosided\">".repeat(n),
+            "</bsdf>".repeat(n)
+        );
+        let err = parse_str(&text, Path::new("deep.xml"), &[])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("deep.xml:2") && err.contains("nested more than 256"),
+            "{err}"
+        );
+        // Quoted "/>" and comments do not hide the depth; siblings add none.
+        let tricky = format!(
+            "<a>{}{}",
+            "<b x=\"/>\"><!-- <c/> -->".repeat(300),
+            "</b>".repeat(300)
+        );
+        assert!(too_deep(tricky.as_bytes(), 256).is_some());
+        let wide = format!("<a>{}</a>", "<b x='/>'/><!-- <c> -->".repeat(5000));
+        assert_eq!(too_deep(wide.as_bytes(), 256), None);
     }
 
     #[test]
