@@ -760,6 +760,17 @@ fn load(args: &RenderArgs) -> Result<(LoadedScene, PathBuf)> {
     }
 }
 
+/// Loads the built-in scene with `args`' `-D` defines, for the fuzz
+/// target of the command line ([`crate::fuzz_arguments`]); errors are
+/// the point, and dropped.
+pub(crate) fn load_builtin_with_defines(args: &RenderArgs) {
+    let _ = load_scene_str(
+        CORNELL_BOX,
+        Path::new("<built-in>/cornell-box.xml"),
+        &args.define,
+    );
+}
+
 fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
     if quiet || !std::io::stderr().is_terminal() {
         return ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::hidden());
