@@ -609,7 +609,10 @@ pub fn resolve_in(
     } else {
         search_paths.iter().map(|dir| dir.join(path)).collect()
     };
-    match candidates.iter().find(|c| c.is_file()) {
+    let found = candidates
+        .iter()
+        .find(|c| c.is_file() && !crate::fuzzing::outside_sandbox(c));
+    match found {
         Some(found) => Ok(found.clone()),
         None => Err(SceneError::NotFound {
             name: name.to_string(),

@@ -429,6 +429,7 @@ fn import(
 fn open_checked(path: &Path) -> Result<gltf::Gltf, SceneError> {
     let at = Location::new(Arc::new(path.to_path_buf()), 0);
     let bytes = std::fs::read(path).map_err(|e| SceneError::at(&at, format!("glTF: {e}")))?;
+    check_glb_length(&bytes, &at)?;
     let unchecked =
         gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| gltf_error(path, e))?;
     let json = unchecked.document.as_json();
@@ -455,6 +456,24 @@ fn open_checked(path: &Path) -> Result<gltf::Gltf, SceneError> {
     let document =
         gltf::Document::from_json(document.into_json()).map_err(|e| gltf_error(path, e))?;
     Ok(gltf::Gltf { document, blob })
+}
+
+/// A GLB's total length is at least its 12-byte header: the `gltf` crate
+/// subtracts the header from it unchecked (an overflow panic in debug
+/// builds).
+pub(crate) fn check_glb_length(bytes: &[u8], at: &Location) -> Result<(), SceneError> {
+    const HEADER: usize = 12;
+    let Some(field) = bytes.strip_prefix(b"glTF").and_then(|b| b.get(4..8)) else {
+        return Ok(());
+    };
+    let length = u32::from_le_bytes(field.try_into().unwrap());
+    if (length as usize) < HEADER {
+        return Err(SceneError::at(
+            at,
+            format!("GLB header: total length {length} is shorter than the {HEADER}-byte header"),
+        ));
+    }
+    Ok(())
 }
 
 /// Every accessor's bytes lie inside its buffer view, and every view

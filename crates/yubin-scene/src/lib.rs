@@ -9,6 +9,8 @@
 pub mod build;
 pub mod desc;
 pub mod error;
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod gltf;
 pub mod image_io;
 pub mod lua;

@@ -109,6 +109,27 @@ pub fn run_lua_at(
     options: &LuaOptions,
     at: Option<(i64, f64)>,
 ) -> Result<LuaScene, SceneError> {
+    run_lua_limited(path, options, at, Limits::default())
+}
+
+/// Budgets for a script's run; none by default, since `yubin render`
+/// runs scripts their own authors wrote. The fuzz harnesses set both so
+/// that an endless loop or a runaway string is an error, not a hang.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Limits {
+    /// Lua VM instructions, over all coroutines together.
+    pub instructions: Option<u64>,
+    /// Bytes the Lua state may hold.
+    pub memory: Option<usize>,
+}
+
+/// [`run_lua_at`] within `limits`.
+pub(crate) fn run_lua_limited(
+    path: &Path,
+    options: &LuaOptions,
+    at: Option<(i64, f64)>,
+    limits: Limits,
+) -> Result<LuaScene, SceneError> {
     let file = Arc::new(path.to_path_buf());
     let whole = Location::new(file.clone(), 0);
     let source =
@@ -127,6 +148,7 @@ pub fn run_lua_at(
         render: RefCell::new(None),
     });
     let lua = sandbox().map_err(|e| lua_error(&file, e))?;
+    limit(&lua, limits).map_err(|e| lua_error(&file, e))?;
     install_gr(&lua, &ctx).map_err(|e| lua_error(&file, e))?;
     install_ease(&lua).map_err(|e| lua_error(&file, e))?;
     let (frame, time) = at.map_or((0, 0.0), |(f, fps)| (f, f as f64 / fps));
@@ -163,6 +185,35 @@ fn sandbox() -> mlua::Result<Lua> {
         globals.set(name, LuaValue::Nil)?;
     }
     Ok(lua)
+}
+
+/// Installs `limits` on a fresh state. The instruction count is checked
+/// every thousand instructions.
+fn limit(lua: &Lua, limits: Limits) -> mlua::Result<()> {
+    if let Some(bytes) = limits.memory {
+        lua.set_memory_limit(bytes)?;
+    }
+    if let Some(max) = limits.instructions {
+        // mlua 0.10 calls a hook only on the thread it was set on, so a
+        // loop inside a coroutine would escape the count: a limited
+        // script has no coroutines.
+        lua.globals().set("coroutine", LuaValue::Nil)?;
+        const EVERY: u32 = 1000;
+        let spent = Cell::new(0u64);
+        lua.set_hook(
+            mlua::HookTriggers::new().every_nth_instruction(EVERY),
+            move |_, _| {
+                spent.set(spent.get() + u64::from(EVERY));
+                if spent.get() > max {
+                    return Err(mlua::Error::runtime(format!(
+                        "the script ran more than {max} Lua instructions"
+                    )));
+                }
+                Ok(mlua::VmState::Continue)
+            },
+        );
+    }
+    Ok(())
 }
 
 /// `scene.lua:12: message` as an error at that line.

@@ -1,0 +1,4 @@
+//! libFuzzer entry for `yubin_scene::fuzzing::gltf`.
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| yubin_scene::fuzzing::gltf(data));
