@@ -268,12 +268,40 @@ fn check_texels(path: &Path, width: usize, height: usize) -> Result<(), SceneErr
         .map_err(|e| SceneError::file(path, e))
 }
 
+/// Refuses an image whose header asks for more memory (`bytes`, decoded)
+/// than its file of `file_len` bytes can fill: no EXR or PNG compression
+/// packs more than 1032 bytes into one (deflate's limit), so a header
+/// claiming more than 2048 times its file's size (and 64 MiB) is damaged
+/// or hostile, and is refused before the decoder allocates it.
+fn check_decoded_size(path: &Path, file_len: u64, bytes: u64) -> Result<(), SceneError> {
+    const FLOOR: u64 = 64 << 20;
+    let most = file_len.saturating_mul(2048).max(FLOOR);
+    if bytes <= most {
+        return Ok(());
+    }
+    Err(SceneError::file(
+        path,
+        format!(
+            "the header asks for {bytes} bytes of image data, more than its {file_len} bytes \
+             can hold (the file is damaged or truncated)"
+        ),
+    ))
+}
+
 /// Reads the `R`,`G`,`B`(,`A`) or `Y`(,`A`) channels of the first layer.
 fn read_exr(path: &Path) -> Result<Image, SceneError> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
+    let file_len = std::fs::metadata(path)
+        .map_err(|e| io_error(path, e))?
+        .len();
     for header in &meta.headers {
         let size = header.layer_size;
         check_texels(path, size.width(), size.height())?;
+        // The reader allocates every channel's samples before it reads
+        // them, as f32 (4 bytes each).
+        let values = (size.width() as u64 * size.height() as u64)
+            .saturating_mul(header.channels.list.len() as u64);
+        check_decoded_size(path, file_len, values.saturating_mul(4))?;
     }
     let exr_image =
         exr::prelude::read_first_flat_layer_from_file(path).map_err(|e| exr_error(path, e))?;
@@ -334,6 +362,9 @@ fn decode_with_image_crate(path: &Path) -> Result<image::DynamicImage, SceneErro
     // own allocation cap (512 MiB by default) is the texel limit's instead.
     let mut reader = reader;
     let mut limits = image::Limits::default();
+    let file_len = std::fs::metadata(path)
+        .map_err(|e| io_error(path, e))?
+        .len();
     limits.max_alloc = Some(Limit::TexturePixels.get().saturating_mul(16));
     reader.limits(limits);
     let reopened = image::ImageReader::open(path)
@@ -344,6 +375,8 @@ fn decode_with_image_crate(path: &Path) -> Result<image::DynamicImage, SceneErro
         .into_dimensions()
         .map_err(|e| SceneError::file(path, format!("cannot decode image: {e}")))?;
     check_texels(path, width as usize, height as usize)?;
+    // At least one byte per texel, whatever the format.
+    check_decoded_size(path, file_len, u64::from(width) * u64::from(height))?;
     reader
         .decode()
         .map_err(|e| SceneError::file(path, format!("cannot decode image: {e}")))

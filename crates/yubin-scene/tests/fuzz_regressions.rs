@@ -161,3 +161,34 @@ fn gltf() {
 fn lua() {
     replay("lua");
 }
+
+/// The image fuzzer's out-of-memory finds: EXR headers claiming gigabytes
+/// of samples in files of 20 KB, which the `exr` crate allocated before
+/// reading (past the fuzzer's 2 GiB). In-process replay has no memory cap
+/// to catch that, so the error itself is checked: refused before
+/// decoding, saying why.
+#[test]
+fn image_headers_that_outgrow_their_files_are_refused() {
+    let dir = std::env::temp_dir().join(format!("yubin-exr-oom-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let inputs: Vec<PathBuf> = files_in(&regressions_dir("image"))
+        .into_iter()
+        .filter(|f| {
+            f.file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with("exr-header-outgrows")
+        })
+        .collect();
+    assert!(!inputs.is_empty());
+    for input in inputs {
+        let exr = dir.join("input.exr");
+        std::fs::copy(&input, &exr).unwrap();
+        let err = match yubin_scene::image_io::read_texture(&exr) {
+            Ok(_) => panic!("{} loaded", input.display()),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.contains("can hold"), "{}: {err}", input.display());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
