@@ -288,12 +288,48 @@ fn check_decoded_size(path: &Path, file_len: u64, bytes: u64) -> Result<(), Scen
     ))
 }
 
+/// The first layer of a B44- or B44A-compressed EXR, decoded on this
+/// thread with a panic turned into an error: the `exr` crate's B44
+/// decoder (1.74) computes with unchecked subtractions that overflow on
+/// damaged blocks, a panic wherever overflow is checked (debug builds,
+/// fuzzing), and one on its own decoder threads aborts the process (the
+/// image fuzzer's only crashes). Release builds wrap instead; either way a
+/// damaged file is refused or decoded, never a crash.
+fn read_b44_exr(path: &Path) -> Result<ExrFlatImage, SceneError> {
+    use exr::prelude::{read, ReadChannels, ReadLayers};
+    let decode = || {
+        read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .non_parallel()
+            .from_file(path)
+    };
+    match std::panic::catch_unwind(decode) {
+        Ok(decoded) => decoded.map_err(|e| exr_error(path, e)),
+        Err(_) => Err(SceneError::file(
+            path,
+            "EXR: the B44 decoder failed on damaged data",
+        )),
+    }
+}
+
+/// An EXR's first layer, every channel as flat samples.
+type ExrFlatImage =
+    exr::image::Image<exr::image::Layer<exr::image::AnyChannels<exr::image::FlatSamples>>>;
+
 /// Reads the `R`,`G`,`B`(,`A`) or `Y`(,`A`) channels of the first layer.
 fn read_exr(path: &Path) -> Result<Image, SceneError> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
     let file_len = std::fs::metadata(path)
         .map_err(|e| io_error(path, e))?
         .len();
+    let b44 = meta.headers.iter().any(|h| {
+        use exr::compression::Compression;
+        matches!(h.compression, Compression::B44 | Compression::B44A)
+    });
     for header in &meta.headers {
         let size = header.layer_size;
         check_texels(path, size.width(), size.height())?;
@@ -303,8 +339,11 @@ fn read_exr(path: &Path) -> Result<Image, SceneError> {
             .saturating_mul(header.channels.list.len() as u64);
         check_decoded_size(path, file_len, values.saturating_mul(4))?;
     }
-    let exr_image =
-        exr::prelude::read_first_flat_layer_from_file(path).map_err(|e| exr_error(path, e))?;
+    let exr_image = if b44 {
+        read_b44_exr(path)?
+    } else {
+        exr::prelude::read_first_flat_layer_from_file(path).map_err(|e| exr_error(path, e))?
+    };
     let layer = &exr_image.layer_data;
     let (width, height) = (layer.size.width(), layer.size.height());
     let channels = &layer.channel_data.list;
@@ -764,6 +803,47 @@ fn exr_error(path: &Path, e: exr::error::Error) -> SceneError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A B44-compressed EXR (lossy 16-bit floats, decoded on this thread
+    /// under a panic guard) reads as written, to half precision.
+    #[test]
+    fn b44_exr_reads_back() {
+        use exr::prelude::*;
+        let path = temp_path("exr");
+        let (w, h) = (8usize, 8usize);
+        let value = |x: usize, y: usize, c: usize| 0.25 + 0.01 * (x + 2 * y + 3 * c) as f32;
+        let channels = SpecificChannels::rgb(|Vec2(x, y)| {
+            (
+                f16::from_f32(value(x, y, 0)),
+                f16::from_f32(value(x, y, 1)),
+                f16::from_f32(value(x, y, 2)),
+            )
+        });
+        let layer = Layer::new(
+            (w, h),
+            LayerAttributes::named("rgb"),
+            Encoding {
+                compression: Compression::B44,
+                ..Encoding::default()
+            },
+            channels,
+        );
+        Image::from_layer(layer).write().to_file(&path).unwrap();
+        let img = read_image(&path, ColorHandling::Raw).unwrap();
+        std::fs::remove_file(&path).ok();
+        assert_eq!((img.width, img.height, img.channels), (w, h, 3));
+        for y in 0..h {
+            for x in 0..w {
+                for c in 0..3 {
+                    let got = img.data[img.index(x, y, c)];
+                    assert!(
+                        (got - value(x, y, c)).abs() < 0.01,
+                        "({x}, {y}, {c}): {got}"
+                    );
+                }
+            }
+        }
+    }
 
     /// A fresh, not yet existing path in the temp directory.
     fn temp_path(extension: &str) -> PathBuf {
