@@ -169,3 +169,86 @@ fn adaptive_sampling_is_identical_on_any_thread_count() {
         );
     }
 }
+
+/// A render split into parts (each part's tiles rendered alone, on its own
+/// thread count) and put together with `assemble` is the plain render's
+/// image bit for bit: with a Gaussian filter whose splats cross tiles, an
+/// image whose edge tiles are partial, 1 to 7 parts, and passes that grow.
+#[test]
+fn parts_assembled_equal_the_whole_render() {
+    use yubin_core::render::{assemble, average, Part, PassSize, Progressive};
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.xml");
+    let defines = [
+        ("resx".to_string(), "53".to_string()),
+        ("resy".to_string(), "37".to_string()),
+        ("rfilter".to_string(), "gaussian".to_string()),
+    ];
+    let loaded = load_scene(&scene, &defines).unwrap();
+    let settings = RenderSettings { spp: 21, seed: 5 };
+    let whole = render(
+        &loaded.scene,
+        loaded.integrator.as_ref(),
+        &settings,
+        &|_| {},
+    );
+    for count in 1..=7 {
+        let parts: Vec<Progressive> = (0..count)
+            .map(|index| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(1 + index as usize % 3)
+                    .build()
+                    .unwrap();
+                let mut part =
+                    Progressive::new(&loaded.scene, loaded.integrator.as_ref(), settings, 1)
+                        .with_passes(PassSize::growing(settings.spp))
+                        .with_part(Part { index, count })
+                        .unwrap();
+                while !part.finished() {
+                    pool.install(|| part.pass(&|_| {}));
+                }
+                part
+            })
+            .collect();
+        let mut tiles: Vec<(usize, &[f32])> = parts.iter().flat_map(|p| p.part_sums()).collect();
+        tiles.sort_by_key(|&(i, _)| i);
+        let margin = parts[0].margin();
+        let sums = assemble(
+            loaded.scene.film.crop_size,
+            margin,
+            3,
+            tiles.iter().map(|&(_, t)| t),
+        )
+        .unwrap();
+        let image = average(&sums, 3);
+        let identical = image.len() == whole.image.data.len()
+            && image
+                .iter()
+                .zip(&whole.image.data)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+        assert!(identical, "{count} parts differ from the whole render");
+        let samples: u64 = parts.iter().map(|p| p.total_samples()).sum();
+        assert_eq!(samples, whole.samples, "{count} parts");
+        // A tile left out, or one of the wrong length, is refused.
+        let short = assemble(
+            loaded.scene.film.crop_size,
+            margin,
+            3,
+            tiles[1..].iter().map(|&(_, t)| t),
+        );
+        assert!(short.is_err());
+        let wrong = assemble(
+            loaded.scene.film.crop_size,
+            margin + 1,
+            3,
+            tiles.iter().map(|&(_, t)| t),
+        );
+        assert!(wrong.is_err());
+    }
+    // The film's 4 × 3 tiles make at most 12 parts.
+    let too_many = Progressive::new(&loaded.scene, loaded.integrator.as_ref(), settings, 1)
+        .with_part(Part {
+            index: 0,
+            count: 13,
+        });
+    assert!(too_many.is_err());
+}

@@ -4,6 +4,8 @@
 //!
 //! ```text
 //! yubin render [SCENE] [-o OUT] [--spp N] [--threads N] [--seed S] [-D name=value]... [--quiet]
+//! yubin render SCENE --part K/N -o PART.exr     (one of N parts)
+//! yubin merge PART.exr... -o IMAGE.exr
 //! yubin compare IMAGE.exr REFERENCE.exr
 //! yubin tonemap IMAGE.exr -o OUT.png [--exposure EV] [--tonemap CURVE | --ocio CONFIG --view VIEW --look LOOKS]
 //! ```
@@ -13,7 +15,9 @@ mod checkpoint;
 mod compare;
 mod denoise;
 mod interrupt;
+mod merge;
 mod output;
+mod part;
 mod render;
 mod tonemap;
 
@@ -33,6 +37,9 @@ pub struct Cli {
 enum Command {
     /// Render a scene (the built-in Cornell box when no scene is given).
     Render(Box<render::RenderArgs>),
+    /// Put the parts of a render (`render --part K/N`) together into its
+    /// image, bit for bit the image of one render.
+    Merge(merge::MergeArgs),
     /// Compare an image with a reference: relMSE, RMSE and mean-luminance bias.
     Compare(compare::CompareArgs),
     /// Show a scene-linear image through an exposure and a tone curve or
@@ -45,6 +52,7 @@ enum Command {
 pub fn run(cli: Cli) -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render::run(*args),
+        Command::Merge(args) => merge::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Tonemap(args) => tonemap::run(args),
     };

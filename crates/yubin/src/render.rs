@@ -4,6 +4,7 @@ use crate::checkpoint;
 use crate::denoise;
 use crate::interrupt::Interrupt;
 use crate::output::{write_output, Display, DisplayArgs};
+use crate::part::{self, PartHeader};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
@@ -14,7 +15,8 @@ use yubin_core::filter::Filter;
 use yubin_core::integrator::{DenoiserGuides, Guide, PathIntegrator};
 use yubin_core::limits::{self, Limit};
 use yubin_core::render::{
-    render_until, Adaptive, NonFiniteSample, Progressive, RenderOutput, RenderSettings,
+    render_until, Adaptive, NonFiniteSample, Part, PassSize, Progressive, RenderOutput,
+    RenderSettings,
 };
 use yubin_scene::tonemap::View;
 use yubin_scene::{load_scene, load_scene_str, LoadedScene};
@@ -96,10 +98,20 @@ pub struct RenderArgs {
     /// Write the image so far every SECONDS (rendering in passes).
     #[arg(long, value_name = "SECONDS", value_parser = parse_duration)]
     progressive: Option<Duration>,
-    /// Samples per pixel in each pass of a progressive or time-limited
-    /// render.
-    #[arg(long, value_name = "N", default_value_t = 1)]
-    pass_spp: u32,
+    /// Samples per pixel in each pass of a render in passes (default: 1
+    /// for a time-limited render, else passes of 1, 2, 4, … up to a
+    /// sixteenth of --spp, as a plain render takes them).
+    #[arg(long, value_name = "N")]
+    pass_spp: Option<u32>,
+    /// Render only part K of N (K from 0 to N − 1) of the image: every
+    /// N-th tile of 16 × 16 pixels from the K-th. The output is a part
+    /// file, which `yubin merge` puts together with the others into the
+    /// image a plain render makes, bit for bit. `auto/N` takes K from the
+    /// scheduler: SLURM_ARRAY_TASK_ID, JOB_COMPLETION_INDEX (Kubernetes)
+    /// or AWS_BATCH_JOB_ARRAY_INDEX. A part stopped by SIGINT or SIGTERM
+    /// saves its state to OUTPUT.state, and the same command continues it.
+    #[arg(long, value_name = "K/N", value_parser = parse_part)]
+    part: Option<PartArg>,
     /// Render only the crop window X,Y,W,H of the film (pixels; Mitsuba's
     /// crop_offset_x/y, crop_width/height).
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
@@ -135,6 +147,73 @@ pub struct RenderArgs {
     /// How PNG/JPEG output shows the image.
     #[command(flatten)]
     display: DisplayArgs,
+}
+
+/// `--part K/N`, K given or (`auto/N`) from the environment.
+#[derive(Clone, Copy, Debug)]
+struct PartArg {
+    index: Option<u32>,
+    count: u32,
+}
+
+fn parse_part(s: &str) -> Result<PartArg, String> {
+    let bad = || format!("expected K/N (part K of N, K from 0) or auto/N, not \"{s}\"");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let count: u32 = n.trim().parse().map_err(|_| bad())?;
+    let index = match k.trim() {
+        "auto" => None,
+        k => Some(k.parse().map_err(|_| bad())?),
+    };
+    if count == 0 {
+        return Err(format!("--part {s}: N must be at least 1"));
+    }
+    if index.is_some_and(|k| k >= count) {
+        return Err(format!("--part {s}: parts are numbered 0 to {}", count - 1));
+    }
+    Ok(PartArg { index, count })
+}
+
+/// The environment variables a scheduler gives an array task its index in.
+pub(crate) const INDEX_VARIABLES: [&str; 3] = [
+    "SLURM_ARRAY_TASK_ID",
+    "JOB_COMPLETION_INDEX",
+    "AWS_BATCH_JOB_ARRAY_INDEX",
+];
+
+impl PartArg {
+    /// The part, its index read from the environment for `auto`.
+    fn resolve(self) -> Result<Part> {
+        let index = match self.index {
+            Some(k) => k,
+            None => {
+                let (name, value) = INDEX_VARIABLES
+                    .iter()
+                    .find_map(|&v| Some((v, std::env::var(v).ok()?)))
+                    .ok_or_else(|| {
+                        anyhow::anyhow!(
+                            "--part auto/{}: none of {} is set (give the part as K/{})",
+                            self.count,
+                            INDEX_VARIABLES.join(", "),
+                            self.count
+                        )
+                    })?;
+                value.trim().parse().map_err(|_| {
+                    anyhow::anyhow!("--part auto: {name}={value} is not a part number")
+                })?
+            }
+        };
+        if index >= self.count {
+            bail!(
+                "part {index} of {}: parts are numbered 0 to {}",
+                self.count,
+                self.count - 1
+            );
+        }
+        Ok(Part {
+            index,
+            count: self.count,
+        })
+    }
 }
 
 /// The denoiser guides `--aov` asks for (a newtype: clap reads a `Vec`
@@ -289,6 +368,43 @@ pub fn run(args: RenderArgs) -> Result<()> {
     render_scene(&args, &loaded, &output, load_time, None)
 }
 
+/// What a render with `--part` is split into, and what it refuses.
+fn part_of(args: &RenderArgs, loaded: &LoadedScene) -> Result<Option<Part>> {
+    let Some(part) = args.part else {
+        return Ok(None);
+    };
+    let refused = [
+        (
+            args.time_limit.is_some(),
+            "--time-limit (parts must take the same samples)",
+        ),
+        (
+            args.adaptive.is_some(),
+            "--adaptive (a pixel stops by its neighbours, which another part renders)",
+        ),
+        (
+            args.progressive.is_some(),
+            "--progressive (a part is not an image)",
+        ),
+        (
+            args.pass_spp.is_some(),
+            "--pass-spp (a part takes its passes as a plain render does)",
+        ),
+        (
+            args.resume.is_some(),
+            "--resume (a part continues its own OUTPUT.state when run again)",
+        ),
+        (
+            loaded.integrator.particle_tracer().is_some(),
+            "ptracer (its light paths land anywhere in the image)",
+        ),
+    ];
+    if let Some((_, what)) = refused.iter().find(|(on, _)| *on) {
+        bail!("--part cannot be used with {what}");
+    }
+    part.resolve().map(Some)
+}
+
 /// Renders `loaded` and writes it to `output`, with a summary line; for a
 /// frame of an animation, `frame` is (its number, its place, the count).
 fn render_scene(
@@ -298,11 +414,13 @@ fn render_scene(
     load_time: Duration,
     frame: Option<(i64, usize, usize)>,
 ) -> Result<()> {
+    let part = part_of(args, loaded)?;
     let passes = args.time_limit.is_some()
         || args.progressive.is_some()
         || args.adaptive.is_some()
         || args.checkpoint.is_some()
-        || args.resume.is_some();
+        || args.resume.is_some()
+        || part.is_some();
     if passes && loaded.integrator.particle_tracer().is_some() {
         bail!("--time-limit, --progressive, --adaptive, --checkpoint and --resume render in passes, which ptracer does not (it renders all its light paths at once)");
     }
@@ -320,7 +438,7 @@ fn render_scene(
     if spp == 0 {
         bail!("--spp must be at least 1");
     }
-    if args.pass_spp == 0 {
+    if args.pass_spp == Some(0) {
         bail!("--pass-spp must be at least 1");
     }
     let film = &loaded.scene.film;
@@ -350,8 +468,17 @@ fn render_scene(
     let pixels = u64::from(film.crop_size[0]) * u64::from(film.crop_size[1]);
     let t1 = Instant::now();
     let interrupt = Interrupt::watch()?;
+    let job = PassJob {
+        settings,
+        part,
+        frame: frame.map(|(number, _, _)| number),
+        output,
+        display: &display,
+        denoise: args.denoise,
+        crop_offset: loaded.scene.film.crop_offset,
+    };
     let (out, total_samples, passes_done) = if passes {
-        render_in_passes(&pool, loaded, &settings, args, output, &display)?
+        render_in_passes(&pool, loaded, args, &job)?
     } else {
         let bar = progress_bar(pixels * u64::from(spp), args.quiet);
         if let Some((number, place, count)) = frame {
@@ -389,21 +516,25 @@ fn render_scene(
     }
     report_nonfinite(&out, args.strict);
     let mut out = out;
-    if args.denoise {
+    if args.denoise && part.is_none() {
         denoise::denoise(&mut out)?;
     }
-    write_output(output, &out, &display)?;
+    if part.is_none() {
+        write_output(output, &out, &display)?;
+    }
     if !args.quiet {
         if let (View::Ocio(p), false) = (&display.view, output_is_exr(output)) {
             eprintln!("{}: shown through OCIO {}", output.display(), p.description);
         }
-        let passes = if passes {
-            format!(" in {passes_done} passes")
-        } else {
-            String::new()
+        let passes = match (part, passes) {
+            (Some(p), _) => format!(" in {passes_done} passes, part {}/{}", p.index, p.count),
+            (None, true) => format!(" in {passes_done} passes"),
+            (None, false) => String::new(),
         };
         let spp = if args.adaptive.is_some() {
             format!("{:.1} spp on average", total_samples as f64 / pixels as f64)
+        } else if part.is_some() {
+            format!("{spp} spp")
         } else {
             format!("{} spp", total_samples / pixels.max(1))
         };
@@ -449,7 +580,7 @@ fn render_scene(
 /// Says how many samples came out NaN or infinite (dropped from the
 /// image) and where the first did, so that `--crop` can render it again;
 /// `strict` lists every one kept.
-fn report_nonfinite(out: &RenderOutput, strict: bool) {
+pub(crate) fn report_nonfinite(out: &RenderOutput, strict: bool) {
     let dropped = out.dropped_samples;
     if dropped == 0 {
         return;
@@ -488,39 +619,79 @@ fn report_nonfinite(out: &RenderOutput, strict: bool) {
     }
 }
 
+/// What a render in passes is asked for beyond its arguments.
+struct PassJob<'a> {
+    settings: RenderSettings,
+    /// The part it renders, if only one.
+    part: Option<Part>,
+    /// The frame of an animation it renders.
+    frame: Option<i64>,
+    output: &'a Path,
+    display: &'a Display,
+    /// The image is to be denoised (for a part: once merged).
+    denoise: bool,
+    /// The crop window's place in the film.
+    crop_offset: [u32; 2],
+}
+
+/// The passes a render takes: `--pass-spp`, else one sample at a time
+/// until a time limit, else as a plain render takes them.
+fn pass_size(args: &RenderArgs, spp: u32) -> PassSize {
+    match (args.pass_spp, args.time_limit) {
+        (Some(n), _) => PassSize::Fixed(n),
+        (None, Some(_)) => PassSize::Fixed(1),
+        (None, None) => PassSize::growing(spp),
+    }
+}
+
 /// Renders pass after pass until the samples are taken or the next pass
 /// would end past the time limit, writing the image so far at the
-/// `--progressive` interval; returns the image, the samples taken over
-/// the image and the passes.
+/// `--progressive` interval (a part: its part file once finished);
+/// returns the image, the samples taken over the image and the passes.
 fn render_in_passes(
     pool: &rayon::ThreadPool,
     loaded: &LoadedScene,
-    settings: &RenderSettings,
     args: &RenderArgs,
-    output: &Path,
-    display: &Display,
+    job: &PassJob,
 ) -> Result<(RenderOutput, u64, u32)> {
+    let (settings, output, display) = (&job.settings, job.output, job.display);
     let start = Instant::now();
-    let mut render = Progressive::new(
-        &loaded.scene,
-        loaded.integrator.as_ref(),
-        *settings,
-        args.pass_spp,
-    );
+    let mut render = Progressive::new(&loaded.scene, loaded.integrator.as_ref(), *settings, 1)
+        .with_passes(pass_size(args, settings.spp));
     if let Some(threshold) = args.adaptive {
         render = render.with_adaptive(Adaptive {
             threshold,
             min_spp: args.adaptive_min,
         });
     }
-    let fingerprint = fingerprint(args, loaded, settings)?;
+    if let Some(part) = job.part {
+        render = render
+            .with_part(part)
+            .map_err(|e| anyhow::anyhow!("--part: {e}"))?;
+    }
+    let fingerprint = fingerprint(args, loaded, settings, job.frame)?;
     let state_path = PathBuf::from(format!("{}.state", output.display()));
-    if let Some(resume) = &args.resume {
+    // A part continues the state a signal left (the same command again).
+    let resume = match (&args.resume, job.part) {
+        (Some(r), _) => Some(r.clone()),
+        (None, Some(_)) if state_path.exists() => Some(state_path.clone()),
+        _ => None,
+    };
+    if let Some(resume) = &resume {
         let (saved, state) = checkpoint::read(resume)?;
         checkpoint::check_same(resume, &saved, &fingerprint)?;
         render
             .restore(state)
             .map_err(|e| anyhow::anyhow!("{}: {e}", resume.display()))?;
+        if job.part.is_some() && !args.quiet {
+            eprintln!(
+                "{}: continuing from {} ({} of {} samples per pixel done)",
+                output.display(),
+                resume.display(),
+                render.samples_done(),
+                settings.spp
+            );
+        }
     }
     // SIGINT and SIGTERM end the render, its pass in flight dropped, saved.
     let interrupt = Interrupt::watch()?;
@@ -558,6 +729,17 @@ fn render_in_passes(
         if let Some(code) = interrupt.exit_code() {
             bar.finish_and_clear();
             checkpoint::write(&state_path, &fingerprint, &render.state())?;
+            if let Some(p) = job.part {
+                eprintln!(
+                    "interrupted after {} of {} samples per pixel: part {}/{} saved to {} (the same command continues it)",
+                    render.samples_done(),
+                    settings.spp,
+                    p.index,
+                    p.count,
+                    state_path.display()
+                );
+                std::process::exit(code);
+            }
             write_output(output, &render.output(), display)?;
             eprintln!(
                 "interrupted after {} passes: wrote {} and {} (continue with --resume {})",
@@ -576,9 +758,12 @@ fn render_in_passes(
         }
     }
     bar.finish_and_clear();
+    if let Some(part) = job.part {
+        write_part(output, &render, part, fingerprint.clone(), job)?;
+    }
     if render.finished() {
         // A finished render needs no state.
-        if args.checkpoint.is_some() || args.resume.is_some() {
+        if args.checkpoint.is_some() || resume.is_some() {
             std::fs::remove_file(&state_path).ok();
         }
     } else if args.checkpoint.is_some() {
@@ -591,12 +776,46 @@ fn render_in_passes(
     ))
 }
 
-/// What a checkpoint must match to be resumed: the scene file's contents,
-/// the defines and every setting that changes the samples.
+/// Writes the part file of the finished `render` of `part`.
+fn write_part(
+    output: &Path,
+    render: &Progressive,
+    part: Part,
+    fingerprint: checkpoint::Fingerprint,
+    job: &PassJob,
+) -> Result<()> {
+    let out = render.output();
+    let sums: Vec<&[f32]> = render.part_sums().map(|(_, s)| s).collect();
+    let header = PartHeader {
+        index: part.index,
+        count: part.count,
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        fingerprint,
+        crop: [out.image.width, out.image.height],
+        crop_offset: job.crop_offset,
+        margin: render.margin(),
+        channels: out.image.channels,
+        layers: out.layers,
+        spp: job.settings.spp,
+        done: render.samples_done(),
+        samples: render.total_samples(),
+        dropped: out.dropped_samples,
+        nonfinite_pixels: out.nonfinite.pixels,
+        nonfinite: out.nonfinite.first,
+        error: render.error_sum(),
+        denoise: job.denoise,
+    };
+    part::write(output, &header, &sums)
+}
+
+/// What a checkpoint must match to be resumed (and the parts of a render
+/// to be merged): the yubin version, the scene file's contents, the
+/// defines, the frame and every setting that changes the samples.
 fn fingerprint(
     args: &RenderArgs,
     loaded: &LoadedScene,
     settings: &RenderSettings,
+    frame: Option<i64>,
 ) -> Result<checkpoint::Fingerprint> {
     let (scene, text) = match &args.scene {
         Some(p) => (
@@ -620,6 +839,7 @@ fn fingerprint(
         .map(|g| format!("{:?}", g.0))
         .unwrap_or_default();
     Ok([
+        ("yubin", env!("CARGO_PKG_VERSION").to_string()),
         ("scene", scene),
         (
             "scene contents",
@@ -628,7 +848,8 @@ fn fingerprint(
         ("defines", defines.join(" ")),
         ("spp", settings.spp.to_string()),
         ("seed", settings.seed.to_string()),
-        ("pass_spp", args.pass_spp.to_string()),
+        ("frame", frame.map(|f| f.to_string()).unwrap_or_default()),
+        ("passes", format!("{:?}", pass_size(args, settings.spp))),
         ("pixel filter", format!("{:?}", film.filter)),
         ("film", format!("{}x{}", film.width, film.height)),
         (
@@ -640,6 +861,7 @@ fn fingerprint(
             format!("{:?} min {}", args.adaptive, args.adaptive_min),
         ),
         ("aov", guides),
+        ("denoise", args.denoise.to_string()),
     ]
     .into_iter()
     .map(|(k, v)| (k.to_string(), v))
@@ -668,12 +890,12 @@ fn set_crop(loaded: &mut LoadedScene, [x, y, w, h]: [u32; 4]) -> Result<()> {
 
 /// Fails before rendering, not after, when the output can't be written
 /// in the format its extension names.
-fn output_is_exr(path: &Path) -> bool {
+pub(crate) fn output_is_exr(path: &Path) -> bool {
     path.extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
 }
 
-fn check_output_format(path: &Path) -> Result<()> {
+pub(crate) fn check_output_format(path: &Path) -> Result<()> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())

@@ -186,7 +186,45 @@ pub struct TileBuffer {
 impl TileBuffer {
     /// An empty buffer for `tile` with `channels` values per sample.
     pub fn new(tile: Tile, filter: &FilterTable, channels: usize) -> Self {
-        let margin = (filter.radius() + 0.5).ceil() as i64;
+        Self::with_margin(tile, Self::margin(filter), channels)
+    }
+
+    /// The margin (pixels on each side of the tile) a buffer keeps for
+    /// `filter`: every pixel a sample in the tile can reach.
+    pub fn margin(filter: &FilterTable) -> u32 {
+        (filter.radius() + 0.5).ceil() as u32
+    }
+
+    /// The values a buffer for `tile` holds with `margin`: per pixel of
+    /// the tile and its margin, row by row, `channels` sums and a weight.
+    pub fn data_len(tile: Tile, margin: u32, channels: usize) -> usize {
+        let m = 2 * margin as usize;
+        (tile.width() + m) * (tile.height() + m) * (channels + 1)
+    }
+
+    /// A buffer for `tile` holding `data` (as [`TileBuffer::data`] gives
+    /// it); `None` when its length does not fit.
+    pub fn from_data(tile: Tile, margin: u32, channels: usize, data: Vec<f32>) -> Option<Self> {
+        let empty = Self::with_margin(tile, margin, channels);
+        (data.len() == empty.data.len()).then_some(Self { data, ..empty })
+    }
+
+    /// What the buffer holds: per pixel of the tile and its margin, row by
+    /// row, `channels` sums and the weight.
+    pub fn data(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// Adds `other`, a buffer of the same tile, value by value.
+    pub fn add(&mut self, other: &TileBuffer) {
+        debug_assert_eq!((self.origin, self.size), (other.origin, other.size));
+        for (a, b) in self.data.iter_mut().zip(&other.data) {
+            *a += b;
+        }
+    }
+
+    fn with_margin(tile: Tile, margin: u32, channels: usize) -> Self {
+        let margin = i64::from(margin);
         let origin = [tile.x0 as i64 - margin, tile.y0 as i64 - margin];
         let size = [
             (tile.x1 - tile.x0) as usize + 2 * margin as usize,

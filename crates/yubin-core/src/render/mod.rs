@@ -1,7 +1,12 @@
 //! The render loop: the crop window is cut into fixed tiles; rayon renders
-//! tiles in parallel, each into its own [`TileBuffer`]; buffers are merged
-//! in tile order. Every sample value depends only on (pixel, sample index,
-//! dimension, seed), so the image is bit-identical for any thread count.
+//! tiles in parallel, each into its own [`TileBuffer`]. Each tile keeps
+//! its own sums over the passes (its pixels and the margin its filter
+//! reaches), and the image adds the tiles' sums in tile order. Every
+//! sample value depends only on (pixel, sample index, dimension, seed),
+//! so the image is bit-identical for any thread count, and for any split
+//! of the tiles into [`Part`]s rendered apart and put together again
+//! ([`assemble`]): a pixel's value is the same sums added in the same
+//! order.
 //!
 //! A render first builds what its integrator needs of the scene beyond
 //! the scene itself, once ([`RenderState`], in `state.rs`: the light
@@ -73,25 +78,49 @@ pub fn render_until(
     if let Some(tracer) = integrator.particle_tracer() {
         return tracer.render(scene, settings, progress, stop);
     }
-    let mut passes = Progressive::new(scene, integrator, *settings, 1);
-    passes.pass_spp = PassSize::Growing {
-        largest: (settings.spp / 16).max(8),
-    };
+    let mut passes = Progressive::new(scene, integrator, *settings, 1)
+        .with_passes(PassSize::growing(settings.spp));
     while !passes.finished() && passes.pass_unless(progress, stop) {}
     passes.output()
 }
 
 /// How many samples per pixel each pass of a [`Progressive`] render takes.
-#[derive(Clone, Copy, Debug)]
-enum PassSize {
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PassSize {
     /// The same number every pass (the last may take fewer).
     Fixed(u32),
     /// 1, 2, 4, … up to `largest`, then `largest` (the last may take
     /// fewer).
-    Growing { largest: u32 },
+    Growing {
+        /// The samples per pixel of the largest pass.
+        largest: u32,
+    },
 }
 
 impl PassSize {
+    /// The passes of a plain render of `spp` samples per pixel ([`render`]):
+    /// 1, 2, 4, … up to a sixteenth of the whole or 8, whichever is more.
+    pub fn growing(spp: u32) -> Self {
+        PassSize::Growing {
+            largest: (spp / 16).max(8),
+        }
+    }
+
+    /// The pass (from 0) that takes sample `index` of each pixel.
+    pub fn pass_of_sample(self, index: u32) -> u32 {
+        if let PassSize::Fixed(n) = self {
+            return index / n.max(1);
+        }
+        let (mut pass, mut end) = (0, 0u64);
+        loop {
+            end += u64::from(self.of(pass));
+            if u64::from(index) < end {
+                return pass;
+            }
+            pass += 1;
+        }
+    }
+
     /// The samples per pixel of pass `pass` (from 0).
     fn of(self, pass: u32) -> u32 {
         match self {
@@ -121,8 +150,12 @@ pub struct Progressive<'a> {
     pass_spp: PassSize,
     filter: FilterTable,
     channels: usize,
-    /// Per pixel: the weighted sums of each channel, then the weight.
-    sums: Vec<f32>,
+    /// The tiles this render takes, in tile order (all of them, or one
+    /// part's), with their place in the order of all tiles.
+    tiles: Vec<(usize, Tile)>,
+    /// Per tile of `tiles`: the filter-weighted sums of its samples over
+    /// the passes so far.
+    accum: Vec<TileBuffer>,
     /// Samples per pixel taken so far (by the pixels still sampling).
     done: u32,
     passes: u32,
@@ -143,7 +176,9 @@ pub struct Progressive<'a> {
 /// A [`Progressive`] render's accumulated state (what a checkpoint holds).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PassState {
-    /// Per pixel: weighted channel sums, then the weight.
+    /// Per tile rendered, in tile order, what [`TileBuffer::data`] holds:
+    /// per pixel of the tile and its margin, weighted channel sums, then
+    /// the weight.
     pub sums: Vec<f32>,
     /// Adaptive sampling: per pixel, the luminance sums of even and odd
     /// samples (empty without).
@@ -222,15 +257,22 @@ impl<'a> Progressive<'a> {
     ) -> Self {
         let crop = scene.film.crop_size;
         let channels = integrator.channel_count();
+        let filter = FilterTable::new(&scene.film.filter);
+        let tiles: Vec<(usize, Tile)> = tiles(crop).into_iter().enumerate().collect();
+        let accum = tiles
+            .iter()
+            .map(|&(_, tile)| TileBuffer::new(tile, &filter, channels))
+            .collect();
         Self {
             scene,
             render_state: RenderState::new(scene, integrator),
             integrator,
             settings,
             pass_spp: PassSize::Fixed(pass_spp.max(1)),
-            filter: FilterTable::new(&scene.film.filter),
+            filter,
             channels,
-            sums: vec![0.0; crop[0] as usize * crop[1] as usize * (channels + 1)],
+            tiles,
+            accum,
             done: 0,
             passes: 0,
             dropped: 0,
@@ -243,18 +285,94 @@ impl<'a> Progressive<'a> {
     }
 
     /// The same render with adaptive sampling: `settings.spp` becomes the
-    /// most a pixel takes.
+    /// most a pixel takes. Not with a [`Part`]: a pixel stops by its
+    /// neighbours, which another part may render.
     pub fn with_adaptive(mut self, adaptive: Adaptive) -> Self {
         self.adaptive = Some(adaptive);
         self.active = vec![true; self.halves.len()];
         self
     }
 
+    /// The same render in passes of `size` (before the first pass).
+    pub fn with_passes(mut self, size: PassSize) -> Self {
+        self.pass_spp = size;
+        self
+    }
+
+    /// Only `part` of the render: its tiles (before the first pass;
+    /// [`Progressive::part_sums`] then gives what [`assemble`] needs of
+    /// it). Refused for an adaptive render and for a part with no tiles.
+    pub fn with_part(mut self, part: Part) -> Result<Self, String> {
+        if self.adaptive.is_some() {
+            return Err("adaptive sampling cannot be split into parts (a pixel stops by its neighbours, which another part renders)".into());
+        }
+        let count = self.tiles.len();
+        if part.count == 0 || part.index >= part.count {
+            return Err(format!(
+                "part {}/{}: parts are numbered 0 to N − 1 of N ≥ 1",
+                part.index, part.count
+            ));
+        }
+        if part.count as usize > count {
+            return Err(format!(
+                "{} parts: the image has only {count} tiles of {TILE_SIZE}×{TILE_SIZE} pixels, so at most {count} parts",
+                part.count
+            ));
+        }
+        let keep = |&(i, _): &(usize, Tile)| part.has_tile(i);
+        let accum = std::mem::take(&mut self.accum);
+        self.accum = self
+            .tiles
+            .iter()
+            .zip(accum)
+            .filter(|(t, _)| keep(t))
+            .map(|(_, a)| a)
+            .collect();
+        self.tiles.retain(keep);
+        Ok(self)
+    }
+
+    /// The margin of the tiles' sums (pixels on each side).
+    pub fn margin(&self) -> u32 {
+        TileBuffer::margin(&self.filter)
+    }
+
+    /// The sums of each tile rendered, in tile order, with its place in
+    /// the order of all tiles (what [`assemble`] puts together).
+    pub fn part_sums(&self) -> impl Iterator<Item = (usize, &[f32])> {
+        self.tiles
+            .iter()
+            .zip(&self.accum)
+            .map(|(&(i, _), a)| (i, a.data()))
+    }
+
+    /// The average relative error of this render's pixels as
+    /// [`Progressive::estimated_error`] takes it, as its sum and the
+    /// number of pixels it is over (parts add up).
+    pub fn error_sum(&self) -> (f64, u64) {
+        let width = self.scene.film.crop_size[0] as usize;
+        let mut sum = 0.0;
+        let mut count = 0;
+        for &(_, tile) in &self.tiles {
+            for y in tile.y0..tile.y1 {
+                let row = y as usize * width;
+                for h in &self.halves[row + tile.x0 as usize..row + tile.x1 as usize] {
+                    let e = h.relative_error();
+                    if e.is_finite() {
+                        sum += f64::from(e);
+                        count += 1;
+                    }
+                }
+            }
+        }
+        (sum, count)
+    }
+
     /// Everything the render has accumulated, to continue it later
     /// ([`Progressive::restore`]) exactly where it stopped.
     pub fn state(&self) -> PassState {
         PassState {
-            sums: self.sums.clone(),
+            sums: self.accum.iter().flat_map(|a| a.data()).copied().collect(),
             halves: self
                 .halves
                 .iter()
@@ -272,18 +390,24 @@ impl<'a> Progressive<'a> {
     /// settings); refuses a state whose sizes do not fit.
     pub fn restore(&mut self, state: PassState) -> Result<(), String> {
         let pixels = self.halves.len();
-        let fits = state.sums.len() == self.sums.len()
+        let needed: usize = self.accum.iter().map(|a| a.data().len()).sum();
+        let fits = state.sums.len() == needed
             && state.halves.len() == 2 * pixels
             && state.counts.len() == 2 * pixels
             && state.active.len() == self.active.len();
         if !fits {
             return Err(format!(
-                "it holds {} values for an image that needs {}",
+                "it holds {} values for an image that needs {needed}",
                 state.sums.len(),
-                self.sums.len()
             ));
         }
-        self.sums = state.sums;
+        let mut sums = state.sums.into_iter();
+        let margin = self.margin();
+        for (a, &(_, tile)) in self.accum.iter_mut().zip(&self.tiles) {
+            let data = sums.by_ref().take(a.data().len()).collect();
+            *a = TileBuffer::from_data(tile, margin, self.channels, data)
+                .expect("lengths checked above");
+        }
         self.halves = state
             .halves
             .chunks_exact(2)
@@ -319,8 +443,12 @@ impl<'a> Progressive<'a> {
         if self.adaptive.is_some() {
             self.halves.iter().map(|h| u64::from(h.samples())).sum()
         } else {
-            let crop = self.scene.film.crop_size;
-            u64::from(crop[0]) * u64::from(crop[1]) * u64::from(self.done)
+            let pixels: u64 = self
+                .tiles
+                .iter()
+                .map(|(_, t)| (t.width() * t.height()) as u64)
+                .sum();
+            pixels * u64::from(self.done)
         }
     }
 
@@ -395,10 +523,11 @@ impl<'a> Progressive<'a> {
         // runs of tiles it cannot give away once started, which can leave
         // a thread idle at the end of a render while another finishes its
         // run.
-        let results: Option<Vec<TileResult>> = tiles(crop)
+        let results: Option<Vec<TileResult>> = self
+            .tiles
             .par_iter()
             .with_max_len(1)
-            .map(|&tile| {
+            .map(|&(_, tile)| {
                 if stop.load(Ordering::Relaxed) {
                     return None;
                 }
@@ -423,8 +552,11 @@ impl<'a> Progressive<'a> {
         let Some(results) = results else {
             return false;
         };
+        self.accum
+            .par_iter_mut()
+            .zip(&results)
+            .for_each(|(a, r)| a.add(&r.buffer));
         for r in &results {
-            r.buffer.merge_into(&mut self.sums, crop);
             self.dropped += r.dropped;
             self.count_nonfinite(r);
             for (y, row) in (r.tile.y0..r.tile.y1).zip(r.halves.chunks(r.tile.width())) {
@@ -462,24 +594,16 @@ impl<'a> Progressive<'a> {
         }
     }
 
-    /// The image so far: the average of the samples taken.
+    /// The image so far: the average of the samples taken (of a part's
+    /// tiles only, for a [`Part`]).
     pub fn output(&self) -> RenderOutput {
         let crop = self.scene.film.crop_size;
         let channels = self.channels;
-        let data: Vec<f32> = self
-            .sums
-            .chunks_exact(channels + 1)
-            .flat_map(|px| {
-                let w = px[channels];
-                let inv = if w > 0.0 { 1.0 / w } else { 0.0 };
-                // Finite samples can still sum past f32's range (or to
-                // ∞ − ∞ under a filter's negative lobes): the image holds
-                // no NaN or infinity, whatever the sums.
-                px[..channels]
-                    .iter()
-                    .map(move |v| Some(v * inv).filter(|v| v.is_finite()).unwrap_or(0.0))
-            })
-            .collect();
+        let mut sums = vec![0.0; crop[0] as usize * crop[1] as usize * (channels + 1)];
+        for a in &self.accum {
+            a.merge_into(&mut sums, crop);
+        }
+        let data = average(&sums, channels);
         let mut layers = self.integrator.extra_layers();
         let (data, channels) = if self.adaptive.is_some() {
             // Where the samples went: a `spp` layer.
@@ -510,6 +634,93 @@ impl<'a> Progressive<'a> {
             samples: self.total_samples(),
         }
     }
+}
+
+/// The image of weighted sums `sums` (`channels` sums and a weight per
+/// pixel): each pixel's average. Finite samples can still sum past f32's
+/// range (or to ∞ − ∞ under a filter's negative lobes): the image holds no
+/// NaN or infinity, whatever the sums.
+pub fn average(sums: &[f32], channels: usize) -> Vec<f32> {
+    sums.chunks_exact(channels + 1)
+        .flat_map(|px| {
+            let w = px[channels];
+            let inv = if w > 0.0 { 1.0 / w } else { 0.0 };
+            px[..channels]
+                .iter()
+                .map(move |v| Some(v * inv).filter(|v| v.is_finite()).unwrap_or(0.0))
+        })
+        .collect()
+}
+
+/// One of `count` parts of a render ([`Progressive::with_part`]): the
+/// tiles whose place in tile order is `index` modulo `count`. Tiles dealt
+/// out in turn share the image's hard and easy regions among the parts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Part {
+    /// Which part, from 0.
+    pub index: u32,
+    /// How many parts.
+    pub count: u32,
+}
+
+impl Part {
+    /// Whether tile number `tile` (in tile order) is this part's.
+    pub fn has_tile(self, tile: usize) -> bool {
+        tile % self.count as usize == self.index as usize
+    }
+}
+
+/// The tiles of a render of a `crop`-sized image, in the order the render
+/// adds them up.
+pub fn tiles(crop: [u32; 2]) -> Vec<Tile> {
+    let mut out = Vec::new();
+    for y0 in (0..crop[1]).step_by(TILE_SIZE as usize) {
+        for x0 in (0..crop[0]).step_by(TILE_SIZE as usize) {
+            out.push(Tile {
+                x0,
+                y0,
+                x1: (x0 + TILE_SIZE).min(crop[0]),
+                y1: (y0 + TILE_SIZE).min(crop[1]),
+            });
+        }
+    }
+    out
+}
+
+/// The weighted sums of a `crop`-sized image from the sums of every tile
+/// (in tile order, as [`Progressive::part_sums`] gives them, each with
+/// `margin` pixels around it and `channels` sums and a weight per pixel),
+/// added as a render of the whole image adds them: [`average`] of it is
+/// that render's image, bit for bit. Refuses a tile whose length does not
+/// fit, naming it.
+pub fn assemble<'a>(
+    crop: [u32; 2],
+    margin: u32,
+    channels: usize,
+    tile_sums: impl IntoIterator<Item = &'a [f32]>,
+) -> Result<Vec<f32>, String> {
+    let all = tiles(crop);
+    let mut sums = vec![0.0; crop[0] as usize * crop[1] as usize * (channels + 1)];
+    let mut given = 0;
+    for (i, data) in tile_sums.into_iter().enumerate() {
+        let Some(&tile) = all.get(i) else {
+            return Err(format!("more tiles than the {} of the image", all.len()));
+        };
+        let buffer =
+            TileBuffer::from_data(tile, margin, channels, data.to_vec()).ok_or_else(|| {
+                format!(
+                    "tile {i} holds {} values, not {}",
+                    data.len(),
+                    TileBuffer::data_len(tile, margin, channels)
+                )
+            })?;
+        buffer.merge_into(&mut sums, crop);
+        given += 1;
+    }
+    if given != all.len() {
+        return Err(format!("{given} tiles of the image's {}", all.len()));
+    }
+    Ok(sums)
 }
 
 /// At most this many non-finite samples are kept by place.
@@ -556,21 +767,6 @@ pub struct RenderOutput {
     /// The estimated relative error of the image
     /// ([`Progressive::estimated_error`]), when known.
     pub estimated_error: Option<f32>,
-}
-
-fn tiles(crop: [u32; 2]) -> Vec<Tile> {
-    let mut out = Vec::new();
-    for y0 in (0..crop[1]).step_by(TILE_SIZE as usize) {
-        for x0 in (0..crop[0]).step_by(TILE_SIZE as usize) {
-            out.push(Tile {
-                x0,
-                y0,
-                x1: (x0 + TILE_SIZE).min(crop[0]),
-                y1: (y0 + TILE_SIZE).min(crop[1]),
-            });
-        }
-    }
-    out
 }
 
 /// What a pass asks of each tile.
