@@ -6,6 +6,8 @@
 //! yubin render [SCENE] [-o OUT] [--spp N] [--threads N] [--seed S] [-D name=value]... [--quiet]
 //! yubin render SCENE --part K/N -o PART.exr     (one of N parts)
 //! yubin merge PART.exr... -o IMAGE.exr
+//! yubin farm slurm SCENE --parts N -o DIR [--frames A-B] [--submit] [-- RENDER OPTIONS]
+//! yubin farm status DIR | yubin farm resubmit DIR
 //! yubin compare IMAGE.exr REFERENCE.exr
 //! yubin tonemap IMAGE.exr -o OUT.png [--exposure EV] [--tonemap CURVE | --ocio CONFIG --view VIEW --look LOOKS]
 //! ```
@@ -14,6 +16,7 @@
 mod checkpoint;
 mod compare;
 mod denoise;
+mod farm;
 mod interrupt;
 mod merge;
 mod output;
@@ -40,6 +43,8 @@ enum Command {
     /// Put the parts of a render (`render --part K/N`) together into its
     /// image, bit for bit the image of one render.
     Merge(merge::MergeArgs),
+    /// Render on a cluster: Slurm job arrays of parts and their merge.
+    Farm(farm::FarmArgs),
     /// Compare an image with a reference: relMSE, RMSE and mean-luminance bias.
     Compare(compare::CompareArgs),
     /// Show a scene-linear image through an exposure and a tone curve or
@@ -53,6 +58,7 @@ pub fn run(cli: Cli) -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render::run(*args),
         Command::Merge(args) => merge::run(args),
+        Command::Farm(args) => farm::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Tonemap(args) => tonemap::run(args),
     };

@@ -278,7 +278,7 @@ fn parse_crop(s: &str) -> Result<[u32; 4], String> {
         .map_err(|_| format!("expected X,Y,W,H (four whole numbers), got \"{s}\""))
 }
 
-fn parse_frames(s: &str) -> Result<(i64, i64), String> {
+pub(crate) fn parse_frames(s: &str) -> Result<(i64, i64), String> {
     let bad = || format!("frames are A-B or N (1-120, 7), not \"{s}\"");
     let (a, b) = match s.split_once('-') {
         Some((a, b)) => (
