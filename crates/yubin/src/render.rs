@@ -683,7 +683,8 @@ fn render_in_passes(
         render
             .restore(state)
             .map_err(|e| anyhow::anyhow!("{}: {e}", resume.display()))?;
-        if job.part.is_some() && !args.quiet {
+        // Said even when quiet: a farm task's log tells what it resumed.
+        if job.part.is_some() {
             eprintln!(
                 "{}: continuing from {} ({} of {} samples per pixel done)",
                 output.display(),
