@@ -20,6 +20,8 @@
 //! - [`sdf`]: ray-marching cost (evaluations per ray, marches per second)
 //!   of a scene's `sdf` and `mandelbox` shapes, with and without their
 //!   step factors.
+//! - [`farm`]: the CPU time of a render split into parts against one
+//!   render, and the time to merge 8 parts of a 4K image.
 //! - [`envmap`]: time to build a 4096 × 2048 environment map's sampling
 //!   distribution.
 //! - [`rays`]: ray-traversal throughput, build time and memory of yubin's
@@ -30,6 +32,7 @@ mod adaptive;
 mod alloc;
 mod cornell;
 mod envmap;
+mod farm;
 mod manylights;
 mod media;
 mod rays;
@@ -55,6 +58,7 @@ const USAGE: &str = "usage:
   yubin-bench media [--spp N] [--ref-spp N] [--reps N]
   yubin-bench adaptive [--ref-spp N] [--max-spp N]
   yubin-bench suite [--spp N] [--ref-spp N] [--reps N] [--scenes a,b] [--variants v,w] [-D name=value]...
+  yubin-bench farm [--scene PATH] [--spp N] [--parts 2,4,8] [--merge-res WxH]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
                    [--min-passes N] [--max-passes N] [--out FILE.md]
@@ -78,6 +82,7 @@ fn main() -> Result<()> {
         Some("media") => media::run(&args[1..]),
         Some("adaptive") => adaptive::run(&args[1..]),
         Some("suite") => suite::run(&args[1..]),
+        Some("farm") => farm::run(&args[1..]),
         Some("help") => {
             println!("{USAGE}");
             Ok(())

@@ -197,7 +197,7 @@ fn median_run(runs: &[Run]) -> Run {
 /// The CPU's model name, family and model (`/proc/cpuinfo`): virtual
 /// machines often report only "AMD EPYC", which the family and model
 /// narrow to a generation.
-fn cpu_model() -> String {
+pub(crate) fn cpu_model() -> String {
     let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
     let field = |key: &str| {
         info.lines()
