@@ -3,7 +3,7 @@
 //! scene file and the settings), written atomically; a resume compares
 //! the fingerprint with the new command and says what differs.
 //!
-//! The file: a line `YUBIN-CHECKPOINT 1`, `key=value` lines (the
+//! The file: a line `YUBIN-CHECKPOINT 2`, `key=value` lines (the
 //! fingerprint), an empty line, then little-endian binary: samples per
 //! pixel done (u32), passes (u32), dropped samples (u64), and the four
 //! arrays of [`PassState`] each as a u64 length and its values, then an
@@ -13,7 +13,7 @@ use anyhow::{bail, Context, Result};
 use std::path::Path;
 use yubin_core::render::PassState;
 
-const MAGIC: &str = "YUBIN-CHECKPOINT 1";
+const MAGIC: &str = "YUBIN-CHECKPOINT 2";
 
 /// What a render was asked to do, as `(key, value)` pairs.
 pub type Fingerprint = Vec<(String, String)>;
@@ -68,7 +68,7 @@ pub fn read(path: &Path) -> Result<(Fingerprint, PassState)> {
     let corrupt =
         |why: &str| anyhow::anyhow!("{}: not a usable checkpoint ({why})", path.display());
     if !bytes.starts_with(MAGIC.as_bytes()) {
-        return Err(corrupt("it does not start with \"YUBIN-CHECKPOINT 1\""));
+        return Err(corrupt("it does not start with \"YUBIN-CHECKPOINT 2\": not a checkpoint, or one of an older yubin"));
     }
     if bytes.len() < 8 {
         return Err(corrupt("truncated"));
@@ -120,17 +120,7 @@ pub fn read(path: &Path) -> Result<(Fingerprint, PassState)> {
 /// Refuses to resume when what the checkpoint was made for differs from
 /// what this command asks, naming each difference.
 pub fn check_same(path: &Path, saved: &Fingerprint, now: &Fingerprint) -> Result<()> {
-    let differences: Vec<String> = now
-        .iter()
-        .filter_map(|(k, v)| {
-            let old = saved
-                .iter()
-                .find(|(sk, _)| sk == k)
-                .map(|(_, sv)| sv.as_str());
-            (old != Some(v.as_str()))
-                .then(|| format!("{k}: \"{}\" then, \"{v}\" now", old.unwrap_or("(none)")))
-        })
-        .collect();
+    let differences = differences(saved, now, ("then", "now"));
     if !differences.is_empty() {
         bail!(
             "{} was made for another render; it differs in {}",
@@ -139,6 +129,26 @@ pub fn check_same(path: &Path, saved: &Fingerprint, now: &Fingerprint) -> Result
         );
     }
     Ok(())
+}
+
+/// The keys whose values differ between fingerprints `a` and `b`, each
+/// with both values, labelled by `labels` (`spp: "8" then, "9" now`).
+pub fn differences(a: &Fingerprint, b: &Fingerprint, labels: (&str, &str)) -> Vec<String> {
+    let value = |f: &Fingerprint, k: &str| {
+        f.iter()
+            .find(|(key, _)| key == k)
+            .map(|(_, v)| v.clone())
+            .unwrap_or_else(|| "(none)".into())
+    };
+    let mut keys: Vec<&String> = a.iter().chain(b).map(|(k, _)| k).collect();
+    keys.sort();
+    keys.dedup();
+    keys.into_iter()
+        .filter_map(|k| {
+            let (x, y) = (value(a, k), value(b, k));
+            (x != y).then(|| format!("{k}: \"{x}\" {}, \"{y}\" {}", labels.0, labels.1))
+        })
+        .collect()
 }
 
 struct Reader<'a> {

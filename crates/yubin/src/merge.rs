@@ -4,6 +4,7 @@
 //! other settings, another yubin), the same part twice and missing parts
 //! are refused, named, before anything is written.
 
+use crate::checkpoint::differences;
 use crate::denoise;
 use crate::output::{write_output, DisplayArgs};
 use crate::part::{self, PartHeader};
@@ -108,12 +109,16 @@ fn check_belong<'a>(paths: &[PathBuf], headers: &'a [PartHeader]) -> Result<&'a 
                 first.count
             ));
         }
-        let differences = differences(&h.fingerprint, &first.fingerprint);
+        let here = name(path);
+        let there = name(first_path);
+        let differences = differences(
+            &h.fingerprint,
+            &first.fingerprint,
+            (&format!("in {here}"), &format!("in {there}")),
+        );
         if !differences.is_empty() {
             problems.push(format!(
-                "{} differs from {} in {}",
-                name(path),
-                name(first_path),
+                "{here} and {there} differ in {}",
                 differences.join("; ")
             ));
         }
@@ -178,27 +183,6 @@ fn check_belong<'a>(paths: &[PathBuf], headers: &'a [PartHeader]) -> Result<&'a 
         bail!("{}; nothing written", problems.join("; "));
     }
     Ok(first)
-}
-
-/// The keys whose values differ between two fingerprints, with both
-/// values (`a`'s first).
-pub(crate) fn differences(a: &[(String, String)], b: &[(String, String)]) -> Vec<String> {
-    let mut keys: Vec<&String> = a.iter().chain(b).map(|(k, _)| k).collect();
-    keys.dedup();
-    keys.sort();
-    keys.dedup();
-    let value = |f: &[(String, String)], k: &str| {
-        f.iter()
-            .find(|(key, _)| key == k)
-            .map(|(_, v)| v.clone())
-            .unwrap_or_else(|| "(none)".into())
-    };
-    keys.into_iter()
-        .filter_map(|k| {
-            let (x, y) = (value(a, k), value(b, k));
-            (x != y).then(|| format!("{k} (\"{x}\" against \"{y}\")"))
-        })
-        .collect()
 }
 
 /// The render's output from the assembled `sums` and what the parts

@@ -129,7 +129,9 @@ fn parts_that_do_not_belong_together_are_refused_by_name() {
     assert!(twice.contains("part 1/3 is given 2 times"), "{twice}");
     let spp = refused(&d, &[good[0].clone(), good[1].clone(), more_spp[2].clone()]);
     assert!(
-        spp.contains("spp_2.exr differs from good_0.exr in spp (\"9\" against \"8\")"),
+        spp.contains(
+            "spp_2.exr and good_0.exr differ in spp: \"9\" in spp_2.exr, \"8\" in good_0.exr"
+        ),
         "{spp}"
     );
     let scene = refused(
@@ -137,7 +139,7 @@ fn parts_that_do_not_belong_together_are_refused_by_name() {
         &[good[0].clone(), other_scene[1].clone(), good[2].clone()],
     );
     assert!(
-        scene.contains("scene_1.exr differs") && scene.contains("defines"),
+        scene.contains("scene_1.exr and good_0.exr differ") && scene.contains("defines"),
         "{scene}"
     );
     let count = refused(&d, &[good[0].clone(), good[1].clone(), four[2].clone()]);
