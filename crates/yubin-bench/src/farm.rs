@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo build --release -p yubin -p yubin-bench
-//! ./target/release/yubin-bench farm [--scene PATH] [--spp 1024] [--parts 2,4,8] [--merge-res 3840x2160]
+//! ./target/release/yubin-bench farm [--scene PATH] [--spp 1024] [--parts 2,4,8] [--merge-res 3840x2160] [--merge-only]
 //! ```
 //!
 //! Renders the scene (default the built-in Cornell box, 512 × 512) once
@@ -24,6 +24,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let mut spp = 1024u32;
     let mut counts = vec![2u32, 4, 8];
     let mut merge_res = (3840u32, 2160u32);
+    let mut merge_only = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().context("option needs a value");
@@ -41,6 +42,7 @@ pub fn run(args: &[String]) -> Result<()> {
                 let (w, h) = v.split_once('x').context("--merge-res WxH")?;
                 merge_res = (w.parse()?, h.parse()?);
             }
+            "--merge-only" => merge_only = true,
             other => bail!("unknown option {other}"),
         }
     }
@@ -61,6 +63,19 @@ pub fn run(args: &[String]) -> Result<()> {
         .map(|s| s.display().to_string())
         .unwrap_or_else(|| "the built-in Cornell box (512 × 512)".into());
     println!("{scene_name}, {spp} spp, {}\n", crate::suite::cpu_model());
+    if !merge_only {
+        parts_against_one(&yubin, &out, &scene_args, &counts)?;
+    }
+    merge_big(&yubin, &out, merge_res)
+}
+
+/// The table of CPU times: one render, then N parts for each N.
+fn parts_against_one(
+    yubin: &Path,
+    out: &Path,
+    scene_args: &[String],
+    counts: &[u32],
+) -> Result<()> {
     let single = out.join("single.exr");
     let whole = cpu_time(&yubin, &with_output(&scene_args, &single))?;
     println!("| render | CPU time (s) | / single | wall time (s) | merge (s) | merged = single |");
@@ -69,7 +84,7 @@ pub fn run(args: &[String]) -> Result<()> {
         "| single | {:.2} | 1.000 | {:.2} | | |",
         whole.cpu, whole.wall
     );
-    for &n in &counts {
+    for &n in counts {
         let (mut cpu, mut wall) = (0.0, 0.0);
         let mut files = Vec::new();
         for k in 0..n {
@@ -90,12 +105,18 @@ pub fn run(args: &[String]) -> Result<()> {
             if same { "yes" } else { "NO" }
         );
     }
-    let (w, h) = merge_res;
+    Ok(())
+}
+
+/// Renders a `w` × `h` Cornell box at 1 spp as 8 parts and times their
+/// merge (best of 3).
+fn merge_big(yubin: &Path, out: &Path, (w, h): (u32, u32)) -> Result<()> {
     let mut files = Vec::new();
     for k in 0..8 {
         let file = out.join(format!("big_{k}.exr"));
         let args: Vec<String> = [
-            "-D".to_string(),
+            "render".to_string(),
+            "-D".into(),
             format!("resx={w}"),
             "-D".into(),
             format!("resy={h}"),

@@ -58,7 +58,7 @@ const USAGE: &str = "usage:
   yubin-bench media [--spp N] [--ref-spp N] [--reps N]
   yubin-bench adaptive [--ref-spp N] [--max-spp N]
   yubin-bench suite [--spp N] [--ref-spp N] [--reps N] [--scenes a,b] [--variants v,w] [-D name=value]...
-  yubin-bench farm [--scene PATH] [--spp N] [--parts 2,4,8] [--merge-res WxH]
+  yubin-bench farm [--scene PATH] [--spp N] [--parts 2,4,8] [--merge-res WxH] [--merge-only]
   yubin-bench rays [--mesh cubesphere-92|cubesphere-289|dragon|all] [--no-embree]
                    [--wait-quiet X] [--width N] [--incoherent N] [--build-reps N]
                    [--min-passes N] [--max-passes N] [--out FILE.md]

@@ -430,7 +430,8 @@ fn merge_script(farm: &Farm, args: &SlurmArgs, yubin: &Path) -> String {
     s += "# yubin farm: merges the parts into the image(s), once every task of the\n\
           # render array has succeeded (submit.sh: --dependency=afterok).\n";
     let _ = writeln!(s, "#SBATCH --job-name=yubin-merge");
-    let _ = writeln!(s, "#SBATCH --cpus-per-task=1");
+    // Writing a compressed EXR is parallel: as many cores as a part.
+    let _ = writeln!(s, "#SBATCH --cpus-per-task={}", args.cpus_per_task);
     let _ = writeln!(s, "#SBATCH --output={dir}/logs/merge.log");
     let _ = writeln!(s, "#SBATCH --open-mode=append");
     s += &shared_options(args);

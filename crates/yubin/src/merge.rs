@@ -10,6 +10,7 @@ use crate::output::{write_output, DisplayArgs};
 use crate::part::{self, PartHeader};
 use crate::render::{check_output_format, report_nonfinite};
 use anyhow::{bail, Result};
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -48,18 +49,23 @@ pub fn run(args: MergeArgs) -> Result<()> {
         .map(|p| part::read_header(p))
         .collect::<Result<_>>()?;
     let first = check_belong(&args.parts, &headers)?;
-    let mut sums_of: Vec<Option<Vec<f32>>> = vec![None; tiles(first.crop).len()];
-    for path in &args.parts {
-        let (header, sums) = part::read(path)?;
-        for (number, data) in header.tile_numbers().zip(sums) {
-            sums_of[number] = Some(data);
+    // The parts are read side by side (decoding is most of a merge).
+    let read: Vec<part::PartFile> = args
+        .parts
+        .par_iter()
+        .map(|p| part::read(p))
+        .collect::<Result<_>>()?;
+    let mut sums_of: Vec<&[f32]> = vec![&[]; tiles(first.crop).len()];
+    for file in &read {
+        for (number, data) in file.tiles() {
+            sums_of[number] = data;
         }
     }
     let sums = assemble(
         first.crop,
         first.margin,
         first.channels,
-        sums_of.iter().map(|s| s.as_deref().unwrap_or(&[])),
+        sums_of.iter().copied(),
     )
     .map_err(|e| anyhow::anyhow!("the parts do not make the image: {e}"))?;
     let mut out = output_of(first, &headers, &sums);

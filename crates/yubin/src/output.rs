@@ -123,12 +123,12 @@ pub struct Display {
     pub view: View,
 }
 
-fn to_image(fb: &Framebuffer) -> Image {
+fn to_image(fb: Framebuffer) -> Image {
     Image {
         width: fb.width as usize,
         height: fb.height as usize,
         channels: fb.channels,
-        data: fb.data.clone(),
+        data: fb.data,
     }
 }
 
@@ -154,7 +154,7 @@ pub fn write_output(path: &Path, out: &RenderOutput, display: &Display) -> Resul
 }
 
 fn write_layers(path: &Path, out: &RenderOutput, display: &Display) -> Result<()> {
-    let rgb = to_image(&out.image.select_channels(0..3));
+    let rgb = to_image(out.image.select_channels(0..3));
     let mut offset = 3;
     let layers: Vec<Image> = out
         .layers
@@ -162,7 +162,7 @@ fn write_layers(path: &Path, out: &RenderOutput, display: &Display) -> Result<()
         .map(|layer| {
             let range = offset..offset + layer.width();
             offset = range.end;
-            to_image(&out.image.select_channels(range))
+            to_image(out.image.select_channels(range))
         })
         .collect();
     // Only EXR holds extra layers; a PNG gets the RGB image alone.

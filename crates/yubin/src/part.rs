@@ -1,13 +1,13 @@
 //! Part files: what `yubin render --part K/N` writes and `yubin merge`
 //! puts together (see `yubin_core::render::Part`).
 //!
-//! A part file is an OpenEXR image, written to a temporary name and renamed
-//! into place. Its pixels are data, not a picture: the sums of each tile of
-//! the part (the tile and the margin its filter reaches; `channels` sums
-//! and a weight per pixel, as `TileBuffer::data` holds them), each tile in
-//! a cell of `TILE_SIZE + 2 · margin` pixels, top-left aligned, cells in
-//! tile order row by row (`cols` to a row). Channels `c0`, `c1`, … hold
-//! the sums and `w` the weights, as float32, so the values are exact.
+//! A part file is an OpenEXR image, uncompressed (the sums of noisy
+//! samples hardly compress, and a merge reads them fastest so), written
+//! to a temporary name and renamed into place. Its pixels are data, not a
+//! picture: one float32 channel `sums`, one row per tile of the part in
+//! tile order, each row what `TileBuffer::data` holds for the tile (the
+//! tile and the margin its filter reaches; per pixel, `channels` sums and
+//! a weight), edge tiles' rows padded with zeros.
 //! Text attributes (`exrheader` lists them) say what the merge needs to
 //! check that the part belongs: `yubin.part` (K/N), `yubin.version`,
 //! `yubin.fingerprint` (the scene file's hash and every setting that
@@ -23,6 +23,7 @@ use exr::prelude::{
 };
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use yubin_core::film::Tile;
 use yubin_core::film::TileBuffer;
 use yubin_core::integrator::Layer as ExtraLayer;
 use yubin_core::render::{tiles, NonFiniteSample, TILE_SIZE};
@@ -207,63 +208,40 @@ impl PartHeader {
     }
 }
 
-/// The side of a tile's cell in a part file.
-fn cell(margin: u32) -> usize {
-    (TILE_SIZE + 2 * margin) as usize
-}
-
-/// Cells to a row for `n` tiles: about square.
-fn columns(n: usize) -> usize {
-    (1..).find(|c| c * c >= n).unwrap_or(1)
+/// The values in a row of a part file: a whole tile's sums (edge tiles,
+/// smaller, leave the rest of their row zero).
+fn row_len(margin: u32, channels: usize) -> usize {
+    let full = Tile {
+        x0: 0,
+        y0: 0,
+        x1: TILE_SIZE,
+        y1: TILE_SIZE,
+    };
+    TileBuffer::data_len(full, margin, channels)
 }
 
 /// Writes a part file: `header` and the sums of its tiles (in tile order,
 /// as `Progressive::part_sums` gives them), through a temporary file
 /// renamed into place.
 pub fn write(path: &Path, header: &PartHeader, sums: &[&[f32]]) -> Result<()> {
-    let all = tiles(header.crop);
-    let numbers: Vec<usize> = header.tile_numbers().collect();
-    if numbers.len() != sums.len() {
+    let expected = header.tile_numbers().count();
+    if expected != sums.len() {
         bail!(
-            "part {}/{}: {} tiles rendered, {} expected",
+            "part {}/{}: {} tiles rendered, {expected} expected",
             header.index,
             header.count,
-            sums.len(),
-            numbers.len()
+            sums.len()
         );
     }
-    let side = cell(header.margin);
-    let cols = columns(sums.len());
-    let rows = sums.len().div_ceil(cols);
-    let (width, height) = (cols * side, rows * side);
-    let stride = header.channels + 1;
-    let mut planes = vec![vec![0.0f32; width * height]; stride];
-    for (j, (&number, data)) in numbers.iter().zip(sums).enumerate() {
-        let tile = all[number];
-        let m = 2 * header.margin as usize;
-        let (bw, bh) = (tile.width() + m, tile.height() + m);
-        let (cx, cy) = ((j % cols) * side, (j / cols) * side);
-        for y in 0..bh {
-            for x in 0..bw {
-                let at = (cy + y) * width + cx + x;
-                for (c, plane) in planes.iter_mut().enumerate() {
-                    plane[at] = data[(y * bw + x) * stride + c];
-                }
-            }
-        }
+    let width = row_len(header.margin, header.channels);
+    let mut rows = vec![0.0f32; width * sums.len()];
+    for (row, data) in rows.chunks_exact_mut(width).zip(sums) {
+        row[..data.len()].copy_from_slice(data);
     }
-    let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = planes
-        .into_iter()
-        .enumerate()
-        .map(|(c, plane)| {
-            let name = if c == header.channels {
-                "w".to_string()
-            } else {
-                format!("c{c}")
-            };
-            AnyChannel::new(Text::from(name.as_str()), FlatSamples::F32(plane))
-        })
-        .collect();
+    let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::from_elem(
+        AnyChannel::new(Text::from("sums"), FlatSamples::F32(rows)),
+        1,
+    );
     let mut attributes = LayerAttributes::default();
     attributes.other.extend(
         header
@@ -272,7 +250,7 @@ pub fn write(path: &Path, header: &PartHeader, sums: &[&[f32]]) -> Result<()> {
             .map(|(k, v)| (Text::from(k), AttributeValue::Text(Text::from(v.as_str())))),
     );
     let layer = Layer::new(
-        (width, height),
+        (width, sums.len()),
         attributes,
         Encoding::UNCOMPRESSED,
         AnyChannels::sort(channels),
@@ -315,62 +293,56 @@ pub fn read_header(path: &Path) -> Result<PartHeader> {
     PartHeader::from_attributes(path, &header.own_attributes.other)
 }
 
-/// Reads a part file whole: its header and each of its tiles' sums, in
-/// tile order.
-pub fn read(path: &Path) -> Result<(PartHeader, Vec<Vec<f32>>)> {
+/// A part file read whole: its header and its tiles' sums.
+pub struct PartFile {
+    /// What it says about itself.
+    pub header: PartHeader,
+    /// One row per tile, in tile order.
+    rows: Vec<f32>,
+}
+
+impl PartFile {
+    /// Each tile's sums with the place of the tile in the order of all
+    /// tiles, in tile order.
+    pub fn tiles(&self) -> impl Iterator<Item = (usize, &[f32])> {
+        let h = &self.header;
+        let all = tiles(h.crop);
+        let width = row_len(h.margin, h.channels);
+        h.tile_numbers()
+            .zip(self.rows.chunks_exact(width))
+            .map(move |(number, row)| {
+                (
+                    number,
+                    &row[..TileBuffer::data_len(all[number], h.margin, h.channels)],
+                )
+            })
+    }
+}
+
+/// Reads a part file whole.
+pub fn read(path: &Path) -> Result<PartFile> {
     let header = read_header(path)?;
+    let damaged = |why: &str| anyhow!("{}: damaged part file ({why})", path.display());
+    let pixels = u64::from(header.crop[0]) * u64::from(header.crop[1]);
+    if pixels == 0 || pixels > 1 << 30 || header.count == 0 || header.channels == 0 {
+        return Err(damaged("its yubin.crop, yubin.part or yubin.channels"));
+    }
     let image = exr::prelude::read_first_flat_layer_from_file(path)
         .map_err(|e| anyhow!("{}: not a readable part file ({e})", path.display()))?;
     let layer = image.layer_data;
-    let damaged = |why: &str| anyhow!("{}: damaged part file ({why})", path.display());
-    let plane = |name: &str| -> Result<&[f32]> {
-        let channel = layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.eq(name))
-            .ok_or_else(|| damaged(&format!("no channel {name}")))?;
-        match &channel.sample_data {
-            FlatSamples::F32(v) => Ok(v.as_slice()),
-            _ => Err(damaged(&format!("channel {name} is not float32"))),
-        }
-    };
-    let stride = header.channels + 1;
-    let planes: Vec<&[f32]> = (0..stride)
-        .map(|c| {
-            if c == header.channels {
-                plane("w")
-            } else {
-                plane(&format!("c{c}"))
-            }
-        })
-        .collect::<Result<_>>()?;
-    let all = tiles(header.crop);
-    let numbers: Vec<usize> = header.tile_numbers().collect();
-    let side = cell(header.margin);
-    let cols = columns(numbers.len());
-    let width = layer.size.width();
-    if width != cols * side || layer.size.height() != numbers.len().div_ceil(cols) * side {
+    let width = row_len(header.margin, header.channels);
+    let rows = header.tile_numbers().count();
+    if (layer.size.width(), layer.size.height()) != (width, rows) {
         return Err(damaged("its size does not fit its tiles"));
     }
-    let sums = numbers
-        .iter()
-        .enumerate()
-        .map(|(j, &number)| {
-            let tile = all[number];
-            let m = 2 * header.margin as usize;
-            let (bw, bh) = (tile.width() + m, tile.height() + m);
-            let (cx, cy) = ((j % cols) * side, (j / cols) * side);
-            let mut data =
-                Vec::with_capacity(TileBuffer::data_len(tile, header.margin, header.channels));
-            for y in 0..bh {
-                for x in 0..bw {
-                    let at = (cy + y) * width + cx + x;
-                    data.extend(planes.iter().map(|p| p[at]));
-                }
-            }
-            data
-        })
-        .collect();
-    Ok((header, sums))
+    let channel = layer
+        .channel_data
+        .list
+        .into_iter()
+        .find(|c| c.name.eq("sums"))
+        .ok_or_else(|| damaged("no channel sums"))?;
+    match channel.sample_data {
+        FlatSamples::F32(rows) => Ok(PartFile { header, rows }),
+        _ => Err(damaged("its sums are not float32")),
+    }
 }

@@ -464,29 +464,66 @@ impl TileBuffer {
 
     /// Adds this buffer into `sums` (crop-sized, `channels + 1` per pixel).
     pub fn merge_into(&self, sums: &mut [f32], crop: [u32; 2]) {
-        let stride = self.channels + 1;
-        // The columns of the buffer inside the crop window, the same on
-        // every row: each row's run is added as one slice (vectorized).
-        let x0 = (-self.origin[0]).clamp(0, self.size[0] as i64) as usize;
-        let x1 = (crop[0] as i64 - self.origin[0]).clamp(x0 as i64, self.size[0] as i64) as usize;
-        if x0 == x1 {
-            return;
+        add_rows(
+            self.origin,
+            self.size,
+            self.channels,
+            &self.data,
+            sums,
+            crop,
+        );
+    }
+
+    /// Adds `data`, what a buffer for `tile` with `margin` holds
+    /// ([`TileBuffer::data`], of [`TileBuffer::data_len`] values), into
+    /// `sums` as [`TileBuffer::merge_into`] does, without making the buffer.
+    pub fn merge_data_into(
+        (tile, margin, channels): (Tile, u32, usize),
+        data: &[f32],
+        sums: &mut [f32],
+        crop: [u32; 2],
+    ) {
+        let m = i64::from(margin);
+        let origin = [i64::from(tile.x0) - m, i64::from(tile.y0) - m];
+        let size = [
+            tile.width() + 2 * m as usize,
+            tile.height() + 2 * m as usize,
+        ];
+        debug_assert_eq!(data.len(), size[0] * size[1] * (channels + 1));
+        add_rows(origin, size, channels, data, sums, crop);
+    }
+}
+
+/// Adds a buffer's `data` (`size` pixels from `origin`, `channels + 1`
+/// values each) into the crop-sized `sums`.
+fn add_rows(
+    origin: [i64; 2],
+    size: [usize; 2],
+    channels: usize,
+    data: &[f32],
+    sums: &mut [f32],
+    crop: [u32; 2],
+) {
+    let width = crop[0];
+    let stride = channels + 1;
+    // The columns of the buffer inside the crop window, the same on
+    // every row: each row's run is added as one slice (vectorized).
+    let x0 = (-origin[0]).clamp(0, size[0] as i64) as usize;
+    let x1 = (i64::from(width) - origin[0]).clamp(x0 as i64, size[0] as i64) as usize;
+    if x0 == x1 {
+        return;
+    }
+    for y in 0..size[1] {
+        let gy = origin[1] + y as i64;
+        if gy < 0 || gy >= i64::from(crop[1]) {
+            continue;
         }
-        for y in 0..self.size[1] {
-            let gy = self.origin[1] + y as i64;
-            if gy < 0 || gy >= crop[1] as i64 {
-                continue;
-            }
-            let src = (y * self.size[0] + x0) * stride;
-            let gx0 = (self.origin[0] + x0 as i64) as usize;
-            let dst = (gy as usize * crop[0] as usize + gx0) * stride;
-            let len = (x1 - x0) * stride;
-            for (d, s) in sums[dst..dst + len]
-                .iter_mut()
-                .zip(&self.data[src..src + len])
-            {
-                *d += s;
-            }
+        let src = (y * size[0] + x0) * stride;
+        let gx0 = (origin[0] + x0 as i64) as usize;
+        let dst = (gy as usize * width as usize + gx0) * stride;
+        let len = (x1 - x0) * stride;
+        for (d, s) in sums[dst..dst + len].iter_mut().zip(&data[src..src + len]) {
+            *d += s;
         }
     }
 }

@@ -706,15 +706,14 @@ pub fn assemble<'a>(
         let Some(&tile) = all.get(i) else {
             return Err(format!("more tiles than the {} of the image", all.len()));
         };
-        let buffer =
-            TileBuffer::from_data(tile, margin, channels, data.to_vec()).ok_or_else(|| {
-                format!(
-                    "tile {i} holds {} values, not {}",
-                    data.len(),
-                    TileBuffer::data_len(tile, margin, channels)
-                )
-            })?;
-        buffer.merge_into(&mut sums, crop);
+        let expected = TileBuffer::data_len(tile, margin, channels);
+        if data.len() != expected {
+            return Err(format!(
+                "tile {i} holds {} values, not {expected}",
+                data.len()
+            ));
+        }
+        TileBuffer::merge_data_into((tile, margin, channels), data, &mut sums, crop);
         given += 1;
     }
     if given != all.len() {
