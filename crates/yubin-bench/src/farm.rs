@@ -77,7 +77,7 @@ fn parts_against_one(
     counts: &[u32],
 ) -> Result<()> {
     let single = out.join("single.exr");
-    let whole = cpu_time(&yubin, &with_output(&scene_args, &single))?;
+    let whole = cpu_time(yubin, &with_output(scene_args, &single))?;
     println!("| render | CPU time (s) | / single | wall time (s) | merge (s) | merged = single |");
     println!("|---|---:|---:|---:|---:|---|");
     println!(
@@ -89,15 +89,15 @@ fn parts_against_one(
         let mut files = Vec::new();
         for k in 0..n {
             let file = out.join(format!("part_{k}_of_{n}.exr"));
-            let mut a = with_output(&scene_args, &file);
+            let mut a = with_output(scene_args, &file);
             a.extend(["--part".into(), format!("{k}/{n}")]);
-            let t = cpu_time(&yubin, &a)?;
+            let t = cpu_time(yubin, &a)?;
             cpu += t.cpu;
             wall += t.wall;
             files.push(file);
         }
         let merged = out.join(format!("merged_{n}.exr"));
-        let merge = merge_time(&yubin, &files, &merged)?;
+        let merge = merge_time(yubin, &files, &merged)?;
         let same = std::fs::read(&merged)? == std::fs::read(&single)?;
         println!(
             "| {n} parts | {cpu:.2} | {:.3} | {wall:.2} | {merge:.2} | {} |",
@@ -129,7 +129,7 @@ fn merge_big(yubin: &Path, out: &Path, (w, h): (u32, u32)) -> Result<()> {
             file.display().to_string(),
         ]
         .to_vec();
-        cpu_time(&yubin, &args)?;
+        cpu_time(yubin, &args)?;
         files.push(file);
     }
     let bytes: u64 = files
@@ -138,7 +138,7 @@ fn merge_big(yubin: &Path, out: &Path, (w, h): (u32, u32)) -> Result<()> {
         .sum();
     let merged = out.join("big.exr");
     let best = (0..3)
-        .map(|_| merge_time(&yubin, &files, &merged))
+        .map(|_| merge_time(yubin, &files, &merged))
         .collect::<Result<Vec<f64>>>()?
         .into_iter()
         .fold(f64::INFINITY, f64::min);
