@@ -126,34 +126,43 @@ fn same_bytes(a: &Path, b: &Path) -> bool {
 
 const CORNELL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/cornell-box.xml");
 
+/// `yubin farm slurm SCENE --parts N -o FARM FARM_OPTIONS --submit --
+/// OPTIONS`: what it printed.
+fn submit(
+    scene: &str,
+    parts: &str,
+    farm: &Path,
+    farm_options: &[&str],
+    options: &[&str],
+) -> String {
+    let mut args = vec!["farm", "slurm", scene, "--parts", parts, "-o", path(farm)];
+    args.extend(farm_options);
+    args.extend(["--submit", "--"]);
+    args.extend(options);
+    ok(yubin(&args))
+}
+
+/// `yubin render SCENE OPTIONS -q -o OUT` on this machine.
+fn render_alone(scene: &str, options: &[&str], out: &Path) {
+    let mut args = vec!["render", scene, "-q", "-o", path(out)];
+    args.extend(options);
+    ok(yubin(&args));
+}
+
 #[test]
 fn four_parts_merge_to_one_render() {
     needs_cluster!();
     let d = dir("four");
     let farm = d.join("farm");
     let options = ["--spp", "24", "-D", "resx=72", "-D", "resy=40"];
-    let mut args = vec![
-        "farm",
-        "slurm",
-        CORNELL,
-        "--parts",
-        "4",
-        "-o",
-        path(&farm),
-        "--submit",
-        "--",
-    ];
-    args.extend(options);
-    let printed = ok(yubin(&args));
+    let printed = submit(CORNELL, "4", &farm, &[], &options);
     assert!(printed.contains("#SBATCH --array=0-3"), "{printed}");
     assert!(printed.contains("submitted: render job"), "{printed}");
     let (render, merge) = jobs(&farm);
     assert_eq!(wait_for(&render), ["COMPLETED"; 4]);
     assert_eq!(wait_for(&merge), ["COMPLETED"]);
     let single = d.join("single.exr");
-    let mut args = vec!["render", CORNELL, "-q", "-o", path(&single)];
-    args.extend(options);
-    ok(yubin(&args));
+    render_alone(CORNELL, &options, &single);
     assert!(
         same_bytes(&single, &farm.join("cornell-box.exr")),
         "the merged image differs from one render"
@@ -173,19 +182,7 @@ fn a_cancelled_part_stops_the_merge_and_resubmitting_finishes_it() {
     let farm = d.join("farm");
     // Parts long enough (seconds on one core) to cancel one mid-render.
     let options = ["--spp", "8000", "-D", "resx=32", "-D", "resy=32"];
-    let mut args = vec![
-        "farm",
-        "slurm",
-        CORNELL,
-        "--parts",
-        "2",
-        "-o",
-        path(&farm),
-        "--submit",
-        "--",
-    ];
-    args.extend(options);
-    ok(yubin(&args));
+    submit(CORNELL, "2", &farm, &[], &options);
     let (render, merge) = jobs(&farm);
     let task = format!("{render}_1");
     let start = Instant::now();
@@ -220,9 +217,7 @@ fn a_cancelled_part_stops_the_merge_and_resubmitting_finishes_it() {
     let log = std::fs::read_to_string(farm.join("logs/task_1.log")).unwrap();
     assert!(log.contains("continuing from"), "{log}");
     let single = d.join("single.exr");
-    let mut args = vec!["render", CORNELL, "-q", "-o", path(&single)];
-    args.extend(options);
-    ok(yubin(&args));
+    render_alone(CORNELL, &options, &single);
     assert!(
         same_bytes(&single, &image),
         "the image finished after resubmitting differs from one render"
@@ -239,36 +234,12 @@ fn an_animation_renders_every_frame() {
         env!("CARGO_MANIFEST_DIR"),
         "/../../scenes/animation/bounce.lua"
     );
-    ok(yubin(&[
-        "farm",
-        "slurm",
-        scene,
-        "--frames",
-        "0-5",
-        "--parts",
-        "2",
-        "-o",
-        path(&farm),
-        "--submit",
-        "--",
-        "--spp",
-        "2",
-    ]));
+    submit(scene, "2", &farm, &["--frames", "0-5"], &["--spp", "2"]);
     let (render, merge) = jobs(&farm);
     assert_eq!(wait_for(&render), ["COMPLETED"; 12]);
     assert_eq!(wait_for(&merge), ["COMPLETED"]);
     let frames = d.join("single_####.exr");
-    ok(yubin(&[
-        "render",
-        scene,
-        "--frames",
-        "0-5",
-        "--spp",
-        "2",
-        "-q",
-        "-o",
-        path(&frames),
-    ]));
+    render_alone(scene, &["--frames", "0-5", "--spp", "2"], &frames);
     for f in 0..6 {
         let single = d.join(format!("single_{f:04}.exr"));
         let merged = farm.join(format!("bounce_{f:04}.exr"));

@@ -181,22 +181,11 @@ fn rewrite_attribute(from: &Path, to: &Path, key: &str, value: &str) {
 #[test]
 fn a_part_stopped_by_sigterm_continues_when_run_again() {
     let d = dir("resume");
-    let extra = [
-        "--spp",
-        "6000",
-        "-D",
-        "resx=32",
-        "-D",
-        "resy=32",
-        "--threads",
-        "1",
-    ];
-    let args: Vec<&str> = SCENE
-        .iter()
-        .chain(&extra)
-        .copied()
-        .chain(["--part", "1/2", "-o", "part_1.exr"])
-        .collect();
+    let extra = ["--spp", "6000", "-D", "resx=32", "-D", "resy=32"];
+    let with = |more: &[&'static str]| -> Vec<&str> {
+        SCENE.iter().chain(&extra).chain(more).copied().collect()
+    };
+    let args = with(&["--threads", "1", "--part", "1/2", "-o", "part_1.exr"]);
     let child = Command::new(env!("CARGO_BIN_EXE_yubin"))
         .current_dir(&d)
         .args(&args)
@@ -218,25 +207,13 @@ fn a_part_stopped_by_sigterm_continues_when_run_again() {
     let again = yubin(&d, &args);
     ok(&again);
     assert!(!d.join("part_1.exr.state").exists());
-    let other: Vec<&str> = SCENE
-        .iter()
-        .chain(&extra)
-        .copied()
-        .chain(["--part", "0/2", "-o", "part_0.exr"])
-        .collect();
-    ok(&yubin(&d, &other));
+    ok(&yubin(&d, &with(&["--part", "0/2", "-o", "part_0.exr"])));
     ok(&merge(
         &d,
         &["part_0.exr".into(), "part_1.exr".into()],
         "merged.exr",
     ));
-    let whole: Vec<&str> = SCENE
-        .iter()
-        .chain(&extra[..6])
-        .copied()
-        .chain(["-o", "whole.exr"])
-        .collect();
-    ok(&yubin(&d, &whole));
+    ok(&yubin(&d, &with(&["-o", "whole.exr"])));
     assert!(same_bytes(&d, "whole.exr", "merged.exr"));
     std::fs::remove_dir_all(&d).ok();
 }
