@@ -402,6 +402,11 @@ fn part_of(args: &RenderArgs, loaded: &LoadedScene) -> Result<Option<Part>> {
     if let Some((_, what)) = refused.iter().find(|(on, _)| *on) {
         bail!("--part cannot be used with {what}");
     }
+    // A part file is data for `yubin merge`, not an image: it never takes
+    // the scene's image name.
+    if !args.output.as_deref().is_some_and(output_is_exr) {
+        bail!("--part needs -o PART.exr: a part file (an EXR of the part's sums) for yubin merge");
+    }
     part.resolve().map(Some)
 }
 
@@ -819,8 +824,13 @@ fn fingerprint(
     frame: Option<i64>,
 ) -> Result<checkpoint::Fingerprint> {
     let (scene, text) = match &args.scene {
+        // The file's name, not its path: parts rendered from other
+        // directories belong together (its contents are compared too).
         Some(p) => (
-            p.display().to_string(),
+            p.file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into_owned(),
             std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?,
         ),
         None => (

@@ -225,3 +225,47 @@ fn kill_term(pid: u32) {
         .unwrap();
     assert!(status.success());
 }
+
+/// `--part` asks for an EXR output and a plain render's passes, refuses
+/// what cannot be split, and takes its number from a scheduler.
+#[test]
+fn a_part_needs_an_exr_and_takes_its_number_from_the_scheduler() {
+    let d = dir("options");
+    let error = |args: &[&str]| {
+        let out = render(&d, args);
+        assert!(!out.status.success(), "{args:?} must fail");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    assert!(error(&["--part", "0/2"]).contains("--part needs -o PART.exr"));
+    assert!(error(&["--part", "0/2", "-o", "p.png"]).contains("--part needs -o PART.exr"));
+    let adaptive = error(&["--part", "0/2", "--adaptive", "0.1", "-o", "p.exr"]);
+    assert!(
+        adaptive.contains("--part cannot be used with --adaptive"),
+        "{adaptive}"
+    );
+    assert!(error(&["--part", "4/4", "-o", "p.exr"]).contains("parts are numbered 0 to 3"));
+    let unset = Command::new(env!("CARGO_BIN_EXE_yubin"))
+        .current_dir(&d)
+        .args(SCENE)
+        .args(["--spp", "4", "--part", "auto/4", "-o", "p.exr"])
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX")
+        .env_remove("AWS_BATCH_JOB_ARRAY_INDEX")
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&unset.stderr);
+    assert!(said.contains("none of SLURM_ARRAY_TASK_ID"), "{said}");
+    // Kubernetes' index makes this part 3 of 4.
+    let indexed = Command::new(env!("CARGO_BIN_EXE_yubin"))
+        .current_dir(&d)
+        .args(SCENE)
+        .args(["--spp", "4", "--part", "auto/4", "-o", "p.exr"])
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env("JOB_COMPLETION_INDEX", "3")
+        .output()
+        .unwrap();
+    ok(&indexed);
+    let alone = refused(&d, &["p.exr".into()]);
+    assert!(alone.contains("parts 0, 1, 2 of 4 missing"), "{alone}");
+    std::fs::remove_dir_all(&d).ok();
+}
