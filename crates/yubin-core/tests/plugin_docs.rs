@@ -33,6 +33,272 @@ const FAMILIES: &[(&str, &str)] = &[
 /// directory, path relative to `crates/`): listed with their family.
 const FRONT_END_PLUGINS: &[(&str, &str)] = &[("shape", "yubin-scene/src/gltf.rs")];
 
+/// Every plugin Mitsuba 3.9.1 ships (the `mitsuba/plugins` folder of its
+/// wheel), by the XML tag that holds it.
+const MITSUBA_PLUGINS: &[(&str, &[&str])] = &[
+    (
+        "shape",
+        &[
+            "bsplinecurve",
+            "cube",
+            "cylinder",
+            "disk",
+            "ellipsoids",
+            "ellipsoidsmesh",
+            "instance",
+            "linearcurve",
+            "merge",
+            "obj",
+            "ply",
+            "rectangle",
+            "sdfgrid",
+            "serialized",
+            "shapegroup",
+            "sphere",
+        ],
+    ),
+    (
+        "bsdf",
+        &[
+            "blendbsdf",
+            "bumpmap",
+            "circular",
+            "conductor",
+            "dielectric",
+            "diffuse",
+            "hair",
+            "mask",
+            "measured",
+            "measured_polarized",
+            "normalmap",
+            "null",
+            "plastic",
+            "polarizer",
+            "pplastic",
+            "principled",
+            "principledthin",
+            "retarder",
+            "roughconductor",
+            "roughdielectric",
+            "roughplastic",
+            "thindielectric",
+            "twosided",
+        ],
+    ),
+    (
+        "texture",
+        &["bitmap", "checkerboard", "mesh_attribute", "volume"],
+    ),
+    (
+        "spectrum",
+        &[
+            "blackbody",
+            "d65",
+            "irregular",
+            "rawconstant",
+            "regular",
+            "srgb",
+            "uniform",
+        ],
+    ),
+    (
+        "emitter",
+        &[
+            "area",
+            "constant",
+            "directional",
+            "directionalarea",
+            "envmap",
+            "point",
+            "projector",
+            "spot",
+            "sunsky",
+            "timed_sunsky",
+        ],
+    ),
+    ("medium", &["heterogeneous", "homogeneous"]),
+    (
+        "phase",
+        &[
+            "blendphase",
+            "hg",
+            "isotropic",
+            "rayleigh",
+            "sggx",
+            "tabphase",
+        ],
+    ),
+    ("volume", &["constvolume", "gridvolume"]),
+    (
+        "sensor",
+        &[
+            "batch",
+            "distant",
+            "irradiancemeter",
+            "orthographic",
+            "perspective",
+            "radiancemeter",
+            "thinlens",
+        ],
+    ),
+    ("film", &["hdrfilm", "specfilm"]),
+    (
+        "rfilter",
+        &[
+            "box",
+            "catmullrom",
+            "gaussian",
+            "lanczos",
+            "mitchell",
+            "tent",
+        ],
+    ),
+    (
+        "sampler",
+        &[
+            "independent",
+            "ldsampler",
+            "multijitter",
+            "orthogonal",
+            "stratified",
+        ],
+    ),
+    (
+        "integrator",
+        &[
+            "aov",
+            "depth",
+            "direct",
+            "moment",
+            "path",
+            "ptracer",
+            "stokes",
+            "volpath",
+            "volpathmis",
+        ],
+    ),
+];
+
+/// Mitsuba plugins of its polarized variants (RGB rendering has none).
+const POLARIZED: &[&str] = &[
+    "circular",
+    "measured_polarized",
+    "polarizer",
+    "pplastic",
+    "retarder",
+    "stokes",
+];
+
+/// Mitsuba plugins of its spectral variants only.
+const SPECTRAL: &[&str] = &["specfilm"];
+
+/// Plugins the scene builder (`yubin-scene`) makes itself, beside the
+/// core's plugin tables, by tag.
+const BUILDER_PLUGINS: &[(&str, &[&str])] = &[
+    ("shape", &["gltf", "instance", "shapegroup"]),
+    ("emitter", &["area", "directionalarea"]),
+    (
+        "spectrum",
+        &[
+            "blackbody",
+            "d65",
+            "irregular",
+            "rawconstant",
+            "regular",
+            "srgb",
+            "uniform",
+        ],
+    ),
+];
+
+/// The type strings yubin reads for `tag`: its family's plugin table and
+/// what the builder adds.
+fn yubin_plugins(tag: &str) -> Vec<&'static str> {
+    fn names<T>(table: &[(&'static str, T)]) -> Vec<&'static str> {
+        table.iter().map(|(n, _)| *n).collect()
+    }
+    let mut out = match tag {
+        "shape" => names(yubin_core::shape::PLUGINS),
+        "bsdf" => names(yubin_core::bsdf::PLUGINS),
+        "texture" => names(yubin_core::texture::PLUGINS),
+        "emitter" => names(yubin_core::light::PLUGINS),
+        "medium" => names(yubin_core::medium::PLUGINS),
+        "phase" => names(yubin_core::phase::PLUGINS),
+        "volume" => names(yubin_core::volume::PLUGINS),
+        "sensor" => names(yubin_core::camera::PLUGINS),
+        "film" => names(yubin_core::film::PLUGINS),
+        "rfilter" => names(yubin_core::filter::PLUGINS),
+        "sampler" => names(yubin_core::sampler::PLUGINS),
+        "integrator" => names(yubin_core::integrator::PLUGINS),
+        _ => Vec::new(),
+    };
+    for (t, more) in BUILDER_PLUGINS {
+        if *t == tag {
+            out.extend(more.iter());
+        }
+    }
+    out.sort();
+    out.dedup();
+    out
+}
+
+/// The coverage section: every plugin of Mitsuba 3.9.1 by family, whether
+/// yubin reads it, and what yubin adds.
+fn coverage() -> String {
+    let mut md = String::from("<a id=\"coverage\"></a>\n\n## Coverage of Mitsuba 3.9.1\n\n");
+    md.push_str(
+        "Every plugin Mitsuba 3.9.1 ships, by the tag that names it, and whether a \
+         yubin scene file can use it. The polarized variants' plugins and the \
+         spectral `specfilm` are refused with a message saying yubin renders in \
+         RGB (as Mitsuba's `*_rgb` variants, which lack them too). `blender` \
+         (Mitsuba's Python-side loader of Blender scenes) is not a scene-file \
+         plugin and is left out. yubin's own plugins are listed after each family.\n\n",
+    );
+    let (mut have, mut rgb) = (0, 0);
+    md.push_str("| tag | in yubin | missing | not in RGB rendering | yubin's own |\n|---|---|---|---|---|\n");
+    for (tag, names) in MITSUBA_PLUGINS {
+        let ours = yubin_plugins(tag);
+        let list = |v: Vec<&str>| {
+            if v.is_empty() {
+                "—".to_string()
+            } else {
+                v.iter()
+                    .map(|n| format!("`{n}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            }
+        };
+        let not_rgb = |n: &&&str| POLARIZED.contains(n) || SPECTRAL.contains(n);
+        let present: Vec<&str> = names.iter().copied().filter(|n| ours.contains(n)).collect();
+        let missing: Vec<&str> = names
+            .iter()
+            .filter(|n| !ours.contains(n) && !not_rgb(n))
+            .copied()
+            .collect();
+        let refused: Vec<&str> = names.iter().filter(not_rgb).copied().collect();
+        let own: Vec<&str> = ours
+            .iter()
+            .copied()
+            .filter(|n| !names.contains(n) && *n != "film")
+            .collect();
+        have += present.len();
+        rgb += names.len() - refused.len();
+        let _ = writeln!(
+            md,
+            "| `{tag}` | {} | {} | {} | {} |",
+            list(present),
+            list(missing),
+            list(refused),
+            list(own)
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\nyubin reads {have} of the {rgb} plugins Mitsuba 3.9.1 has for RGB rendering."
+    );
+    md
+}
+
 struct Entry {
     /// The type string, or `None` for a file documenting several plugins.
     name: Option<String>,
@@ -165,6 +431,8 @@ fn generate(src: &Path) -> String {
         }
         md.push('\n');
     }
+    md.push_str("- [Coverage of Mitsuba 3.9.1](#coverage)\n\n");
+    md.push_str(&coverage());
     for (_, tag, list) in &families {
         let _ = write!(md, "\n<a id=\"{tag}\"></a>\n\n## {tag}\n");
         for e in list {

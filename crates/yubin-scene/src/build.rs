@@ -290,9 +290,10 @@ fn plugin<T: Copy>(obj: &Object, table: &[(&str, T)]) -> Result<T, SceneError> {
 }
 
 fn unknown_type(obj: &Object, known: &str) -> SceneError {
-    obj.error(format!(
-        "unknown {} type \"{}\" (known: {known})",
-        obj.category, obj.plugin_type
+    obj.error(yubin_core::params::unknown_type_message(
+        &obj.category.to_string(),
+        &obj.plugin_type,
+        known,
     ))
 }
 

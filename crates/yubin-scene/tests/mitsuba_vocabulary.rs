@@ -106,3 +106,45 @@ fn checkerboard_as_a_float_swaps_its_colours_as_mitsuba_does() {
     assert_eq!(mitsuba, blend(0.9, 0.2, true));
     assert_ne!(mitsuba, blend(0.2, 0.9, true));
 }
+
+/// Mitsuba's spectral and polarized variants' plugins are refused at
+/// their line with a message that says why (yubin renders in RGB), not
+/// as unknown types.
+#[test]
+fn spectral_and_polarized_plugins_say_yubin_renders_rgb() {
+    let error = |text: &str| match load_scene_str(text, Path::new("spectral.xml"), &[]) {
+        Ok(_) => panic!("{text} loaded"),
+        Err(e) => e.to_string(),
+    };
+    let film = error(
+        r#"<scene version="3.0.0">
+<sensor type="perspective">
+  <film type="specfilm"/>
+</sensor>
+</scene>"#,
+    );
+    assert!(film.contains("spectral.xml:3"), "{film}");
+    assert!(
+        film.contains("\"specfilm\" is one of Mitsuba 3's spectral plugins")
+            && film.contains("yubin renders in RGB"),
+        "{film}"
+    );
+    for (tag, plugin) in [
+        ("bsdf", "pplastic"),
+        ("bsdf", "polarizer"),
+        ("integrator", "stokes"),
+    ] {
+        let e = error(&format!(
+            r#"<scene version="3.0.0"><{tag} type="{plugin}" id="x"/></scene>"#
+        ));
+        assert!(
+            e.contains(&format!(
+                "\"{plugin}\" is one of Mitsuba 3's polarization plugins"
+            )),
+            "{e}"
+        );
+    }
+    // An unknown name is still unknown.
+    let e = error(&scene(r#"<bsdf type="difuse" id="x"/>"#));
+    assert!(e.contains("unknown bsdf type \"difuse\""), "{e}");
+}

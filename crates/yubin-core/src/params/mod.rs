@@ -123,10 +123,27 @@ pub fn plugin_of<T: Copy>(
         .ok_or_else(|| {
             let names: Vec<&str> = table.iter().map(|(name, _)| *name).collect();
             let known = known.map_or_else(|| names.join(", "), str::to_owned);
-            p.error(&format!(
-                "unknown {family} type \"{kind}\" (known: {known})"
-            ))
+            p.error(&unknown_type_message(family, &kind, &known))
         })
+}
+
+/// What an unknown plugin type is told: the known ones, or for a plugin
+/// of Mitsuba 3's spectral or polarized variants, that yubin renders in
+/// RGB.
+pub fn unknown_type_message(family: &str, kind: &str, known: &str) -> String {
+    let not_in_rgb = match kind {
+        "specfilm" => Some("spectral plugins (a film of spectral bands)"),
+        "polarizer" | "retarder" | "circular" | "pplastic" | "measured_polarized" | "stokes" => {
+            Some("polarization plugins")
+        }
+        _ => None,
+    };
+    match not_in_rgb {
+        Some(why) => format!(
+            "{family} \"{kind}\" is one of Mitsuba 3's {why}: yubin renders in RGB, as Mitsuba's *_rgb variants do, which have no \"{kind}\" either"
+        ),
+        None => format!("unknown {family} type \"{kind}\" (known: {known})"),
+    }
 }
 
 /// A nested object with the name its parent gives it (empty when unnamed).
