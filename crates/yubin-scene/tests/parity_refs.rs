@@ -75,3 +75,10 @@ fn parity_envmap_bitmap() {
 fn parity_principled() {
     parity("principled");
 }
+
+/// The `depth` integrator: a sphere, a cube and a floor, a near clip of
+/// 0.5 (depth counts from it, as Mitsuba's `si.t`), misses at the top.
+#[test]
+fn parity_depth() {
+    parity("depth");
+}

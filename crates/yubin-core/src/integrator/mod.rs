@@ -9,6 +9,7 @@
 
 mod ao;
 mod aov;
+mod depth;
 mod direct;
 mod guides;
 mod moment;
@@ -22,6 +23,7 @@ pub use aov::{parse_aovs, AovIntegrator, AovKind};
 pub use direct::DirectIntegrator;
 pub use guides::{DenoiserGuides, Guide};
 pub use moment::MomentIntegrator;
+pub use depth::DepthIntegrator;
 pub use path::PathIntegrator;
 pub use ptracer::ParticleTracer;
 pub use volpath::VolPathIntegrator;
@@ -40,6 +42,7 @@ pub const PLUGINS: &[(&str, IntegratorFromParams)] = &[
     }),
     ("aov", |p| Ok(Box::new(AovIntegrator::from_params(p)?))),
     ("ao", |p| Ok(Box::new(AoIntegrator::from_params(p)?))),
+    ("depth", |p| Ok(Box::new(DepthIntegrator::from_params(p)?))),
     ("ptracer", |p| Ok(Box::new(ParticleTracer::from_params(p)?))),
     ("volpath", |p| {
         Ok(Box::new(VolPathIntegrator::from_params(p)?))
