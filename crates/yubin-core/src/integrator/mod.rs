@@ -20,10 +20,10 @@ pub(crate) mod wide;
 
 pub use ao::AoIntegrator;
 pub use aov::{parse_aovs, AovIntegrator, AovKind};
+pub use depth::DepthIntegrator;
 pub use direct::DirectIntegrator;
 pub use guides::{DenoiserGuides, Guide};
 pub use moment::MomentIntegrator;
-pub use depth::DepthIntegrator;
 pub use path::PathIntegrator;
 pub use ptracer::ParticleTracer;
 pub use volpath::VolPathIntegrator;

@@ -245,7 +245,7 @@ impl VolPathIntegrator {
         path: &PathWeight,
         p: Vec3,
         wo: Vec3,
-        phase: PhaseFunction,
+        phase: &PhaseFunction,
         medium: Option<u32>,
         sampler: &mut SampleStream,
     ) -> Rgb {

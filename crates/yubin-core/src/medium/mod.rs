@@ -220,8 +220,8 @@ impl Medium {
 
     /// The phase function.
     #[inline]
-    pub fn phase(&self) -> PhaseFunction {
-        self.common().phase
+    pub fn phase(&self) -> &PhaseFunction {
+        &self.common().phase
     }
 
     /// Whether scattering points sample emitters.

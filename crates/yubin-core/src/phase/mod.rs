@@ -1,6 +1,6 @@
 //! Phase functions (closed enum): how a participating medium scatters
-//! light, one plugin per file (`isotropic`, `hg`, `rayleigh`), for the
-//! media of the volumetric integrators.
+//! light, one plugin per file (`isotropic`, `hg`, `rayleigh`, `tabphase`,
+//! `blendphase`), for the media of the volumetric integrators.
 //!
 //! Conventions (Mitsuba 3's): `wo` points from the scattering point back
 //! along the path (minus the incoming ray's direction), `wi` is the new
@@ -8,15 +8,21 @@
 //! Every model here is sampled exactly in proportion to p, so a sample's
 //! weight p / pdf is 1.
 
+mod blendphase;
 mod hg;
 mod isotropic;
 mod rayleigh;
+mod tabphase;
+
+pub use blendphase::Blend;
+pub use tabphase::Table;
 
 use crate::params::{plugin_of, ParamError, Params};
 use glam::{Vec2, Vec3};
+use std::sync::Arc;
 
 /// A phase function.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum PhaseFunction {
     /// `isotropic`: 1 / 4π.
     Isotropic,
@@ -27,6 +33,10 @@ pub enum PhaseFunction {
     },
     /// `rayleigh`: 3 (1 + cos²θ) / 16π.
     Rayleigh,
+    /// `tabphase`: tabulated over cos θ.
+    Tabulated(Arc<Table>),
+    /// `blendphase`: a mix of two.
+    Blend(Arc<Blend>),
 }
 
 /// A sampled direction.
@@ -48,6 +58,8 @@ pub const PLUGINS: &[(&str, PhaseFromParams)] = &[
     ("isotropic", |_| Ok(PhaseFunction::Isotropic)),
     ("hg", hg::from_params),
     ("rayleigh", |_| Ok(PhaseFunction::Rayleigh)),
+    ("tabphase", tabphase::from_params),
+    ("blendphase", blendphase::from_params),
 ];
 
 impl Default for PhaseFunction {
@@ -67,10 +79,12 @@ impl PhaseFunction {
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> f32 {
         let cos_theta = wo.dot(wi);
-        match *self {
+        match self {
             PhaseFunction::Isotropic => isotropic::eval(),
-            PhaseFunction::HenyeyGreenstein { g } => hg::eval(g, cos_theta),
+            PhaseFunction::HenyeyGreenstein { g } => hg::eval(*g, cos_theta),
             PhaseFunction::Rayleigh => rayleigh::eval(cos_theta),
+            PhaseFunction::Tabulated(t) => t.eval(cos_theta),
+            PhaseFunction::Blend(b) => b.eval(wo, wi),
         }
     }
 
@@ -83,10 +97,12 @@ impl PhaseFunction {
     /// A new direction for the uniform sample `u`, in proportion to p.
     #[inline]
     pub fn sample(&self, wo: Vec3, u: Vec2) -> PhaseSample {
-        let wi = match *self {
+        let wi = match self {
             PhaseFunction::Isotropic => isotropic::sample(u),
-            PhaseFunction::HenyeyGreenstein { g } => hg::sample(g, wo, u),
+            PhaseFunction::HenyeyGreenstein { g } => hg::sample(*g, wo, u),
             PhaseFunction::Rayleigh => rayleigh::sample(wo, u),
+            PhaseFunction::Tabulated(t) => t.sample(wo, u),
+            PhaseFunction::Blend(b) => b.sample(wo, u),
         };
         PhaseSample {
             wi,
@@ -115,6 +131,34 @@ mod tests {
     fn every_variant() -> Vec<PhaseFunction> {
         let mut v = vec![PhaseFunction::Isotropic, PhaseFunction::Rayleigh];
         v.extend([-0.9, -0.5, 0.0, 0.3, 0.9].map(|g| PhaseFunction::HenyeyGreenstein { g }));
+        let table = |values: &[f32]| {
+            PhaseFunction::Tabulated(Arc::new(Table::new(values.to_vec()).unwrap()))
+        };
+        // Two nodes, a forward peak with zeros, an uneven table.
+        v.extend([
+            table(&[1.0, 3.0]),
+            table(&[0.0, 0.0, 0.1, 0.5, 4.0, 20.0]),
+            table(&[1.0, 3.0, 2.0, 0.0, 2.5]),
+        ]);
+        let blend = |weight: f32, a: PhaseFunction, b: PhaseFunction| {
+            PhaseFunction::Blend(Arc::new(Blend {
+                weight,
+                parts: [a, b],
+            }))
+        };
+        v.extend([
+            blend(
+                0.25,
+                PhaseFunction::Isotropic,
+                PhaseFunction::HenyeyGreenstein { g: 0.8 },
+            ),
+            blend(
+                0.7,
+                table(&[2.0, 0.5, 1.0]),
+                PhaseFunction::HenyeyGreenstein { g: -0.6 },
+            ),
+            blend(0.0, PhaseFunction::Rayleigh, PhaseFunction::Isotropic),
+        ]);
         v
     }
 
@@ -185,6 +229,43 @@ mod tests {
         let along = 3.0 / (8.0 * std::f32::consts::PI);
         assert!((r.eval(wo, -wo) - along).abs() < 1e-6 && (r.eval(wo, wo) - along).abs() < 1e-6);
         assert!((r.eval(wo, Vec3::X) - along / 2.0).abs() < 1e-6);
+    }
+
+    /// `tabphase` as Mitsuba 3.9.1 evaluates and samples it (values read
+    /// from its `scalar_rgb` variant): the table runs from backward to
+    /// forward scattering, normalized by its trapezoid integral.
+    #[test]
+    fn tabphase_reads_its_table_as_mitsuba_does() {
+        let t = Table::new(vec![1.0, 2.0, 3.0]).unwrap();
+        let f = PhaseFunction::Tabulated(Arc::new(t.clone()));
+        let two_pi = 2.0 * std::f32::consts::PI;
+        let wo = Vec3::Z;
+        let at = |mu: f32| {
+            // wi at angle θ (cos θ = mu) to the direction of travel −wo.
+            let s = (1.0 - mu * mu).sqrt();
+            f.eval(wo, Vec3::new(s, 0.0, -mu)) * two_pi
+        };
+        for (mu, expected) in [(1.0, 0.75), (-1.0, 0.25), (0.0, 0.5), (0.8, 0.7)] {
+            assert!((at(mu) - expected).abs() < 1e-6, "cos θ {mu}: {}", at(mu));
+        }
+        assert!((t.sample_mu(0.25) - (3f32.sqrt() - 2.0)).abs() < 1e-6);
+        assert!((t.sample_mu(0.0) + 1.0).abs() < 1e-6 && (t.sample_mu(1.0) - 1.0).abs() < 1e-6);
+        for bad in [vec![1.0], vec![0.0, 0.0], vec![1.0, -0.5]] {
+            assert!(Table::new(bad).is_err());
+        }
+    }
+
+    /// `blendphase`: the weight is the second one's share.
+    #[test]
+    fn blendphase_weights_the_second() {
+        let wo = Vec3::Z;
+        let hg = PhaseFunction::HenyeyGreenstein { g: 0.8 };
+        let b = Blend {
+            weight: 0.25,
+            parts: [PhaseFunction::Isotropic, hg.clone()],
+        };
+        let expected = 0.75 / (4.0 * std::f32::consts::PI) + 0.25 * hg.eval(wo, Vec3::X);
+        assert!((b.eval(wo, Vec3::X) - expected).abs() < 1e-7);
     }
 
     #[test]
