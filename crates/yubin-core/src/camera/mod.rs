@@ -5,6 +5,7 @@ mod aperture;
 mod orthographic;
 mod perspective;
 pub mod physical;
+mod radiancemeter;
 mod thinlens;
 
 pub use aperture::Aperture;
@@ -13,6 +14,7 @@ pub(crate) use perspective::{
     clip_planes, field_of_view, focus_distance, image_plane_half_extent, rigid_to_world,
 };
 pub use perspective::{FovAxis, Perspective, SensorSample};
+pub use radiancemeter::Radiancemeter;
 
 use crate::film::Film;
 use crate::math::Ray;
@@ -36,6 +38,9 @@ pub const PLUGINS: &[(&str, CameraFromParams)] = &[
     }),
     ("orthographic", |p, size| {
         Ok(Camera::Orthographic(Orthographic::from_params(p, size)?))
+    }),
+    ("radiancemeter", |p, size| {
+        Ok(Camera::Radiancemeter(Radiancemeter::from_params(p, size)?))
     }),
 ];
 
@@ -101,6 +106,8 @@ pub enum Camera {
     Perspective(Perspective),
     /// `orthographic`.
     Orthographic(Orthographic),
+    /// `radiancemeter`: one ray.
+    Radiancemeter(Radiancemeter),
 }
 
 impl Camera {
@@ -123,7 +130,7 @@ impl Camera {
     pub fn sample_towards(&self, p: glam::Vec3, u_lens: Vec2) -> Option<SensorSample> {
         match self {
             Camera::Perspective(c) => c.sample_towards(p, u_lens),
-            Camera::Orthographic(_) => None,
+            Camera::Orthographic(_) | Camera::Radiancemeter(_) => None,
         }
     }
 
@@ -133,6 +140,7 @@ impl Camera {
         match self {
             Camera::Perspective(c) => c.sample_lens(u),
             Camera::Orthographic(c) => c.position(),
+            Camera::Radiancemeter(c) => c.origin(),
         }
     }
 
@@ -143,7 +151,7 @@ impl Camera {
     pub fn ray_towards(&self, lens_p: glam::Vec3, d: glam::Vec3) -> Option<(Ray, Vec2, f32)> {
         match self {
             Camera::Perspective(c) => c.ray_towards(lens_p, d),
-            Camera::Orthographic(_) => None,
+            Camera::Orthographic(_) | Camera::Radiancemeter(_) => None,
         }
     }
 
@@ -155,6 +163,7 @@ impl Camera {
         match self {
             Camera::Perspective(c) => c.generate_ray(film_p, u_lens),
             Camera::Orthographic(c) => Some(c.generate_ray(film_p)),
+            Camera::Radiancemeter(c) => Some(c.ray()),
         }
     }
 
