@@ -195,7 +195,7 @@ const SPECTRAL: &[&str] = &["specfilm"];
 /// Plugins the scene builder (`yubin-scene`) makes itself, beside the
 /// core's plugin tables, by tag.
 const BUILDER_PLUGINS: &[(&str, &[&str])] = &[
-    ("shape", &["gltf", "instance", "shapegroup"]),
+    ("shape", &["gltf", "instance", "merge", "shapegroup"]),
     ("emitter", &["area", "directionalarea"]),
     (
         "spectrum",

@@ -562,6 +562,7 @@ impl Builder<'_> {
                 return Ok(());
             }
             "gltf" => return self.gltf_shape(obj, group),
+            "merge" => return self.merge(obj, group),
             "portal" => return self.portal(obj, group),
             "instance" => {
                 if group != 0 {
@@ -841,6 +842,32 @@ impl Builder<'_> {
         self.sb.set_emitter_options(index, options);
         self.sb.set_emitter_world(index, world);
         self.sb.record(editable.of(EditTarget::Emitter(index)));
+        Ok(())
+    }
+
+    /// Mitsuba 3's `merge`: its shapes, each as if written on its own.
+    /// Mitsuba joins the meshes that share a BSDF, media and attributes
+    /// into one mesh, to have fewer shapes in its BVH; the image is the
+    /// same, and yubin's BVH does not need it. A `<bsdf>` written in it
+    /// applies to none of them (in Mitsuba neither): a warning says so.
+    fn merge(&mut self, obj: &Rc<Object>, group: u32) -> Result<(), SceneError> {
+        for child in &obj.children {
+            let o = &child.object;
+            match o.category {
+                Category::Shape => {
+                    child.used.set(true);
+                    self.shape(o, group)?;
+                }
+                Category::Bsdf => {
+                    child.used.set(true);
+                    self.warnings.push(format!(
+                        "{}: a <bsdf> in a merge shape is ignored (give each shape its own, as in Mitsuba)",
+                        child.loc
+                    ));
+                }
+                _ => {}
+            }
+        }
         Ok(())
     }
 

@@ -148,3 +148,48 @@ fn spectral_and_polarized_plugins_say_yubin_renders_rgb() {
     let e = error(&scene(r#"<bsdf type="difuse" id="x"/>"#));
     assert!(e.contains("unknown bsdf type \"difuse\""), "{e}");
 }
+
+/// Mitsuba 3's `merge` shape renders its shapes as if written on their
+/// own (Mitsuba joins its meshes for speed, not for looks); a `to_world`
+/// on it is an error, as in Mitsuba, and a `<bsdf>` in it is ignored with
+/// a warning.
+#[test]
+fn merge_renders_its_shapes_as_written() {
+    let shapes = r#"<bsdf type="diffuse" id="red"><rgb name="reflectance" value="0.7, 0.2, 0.1"/></bsdf>
+<shape type="cube"><transform name="to_world"><scale value="0.4"/><translate x="-0.6"/></transform><ref id="red"/></shape>
+<shape type="rectangle"><transform name="to_world"><translate z="-0.5"/></transform><ref id="red"/></shape>
+<shape type="sphere"><point name="center" value="0.6, 0, 0"/><float name="radius" value="0.4"/></shape>"#;
+    let plain = image(shapes);
+    let merged = image(
+        &shapes
+            .replacen("<shape", "<shape type=\"merge\">\n<shape", 1)
+            .replace(
+                "<shape type=\"sphere\">",
+                "</shape>\n<shape type=\"sphere\">",
+            ),
+    );
+    assert_eq!(plain, merged, "a merge changed the image");
+    let with_bsdf = format!(
+        r#"{}<shape type="merge"><bsdf type="conductor"/>
+<shape type="disk"/></shape>"#,
+        ""
+    );
+    let loaded = load_scene_str(&scene(&with_bsdf), Path::new("m.xml"), &[]).unwrap();
+    assert!(
+        loaded
+            .warnings
+            .iter()
+            .any(|w| w.contains("a <bsdf> in a merge shape is ignored")),
+        "{:?}",
+        loaded.warnings
+    );
+    let moved = scene(
+        r#"<shape type="merge"><transform name="to_world"><translate x="1"/></transform>
+<shape type="disk"/></shape>"#,
+    );
+    let e = match load_scene_str(&moved, Path::new("m.xml"), &[]) {
+        Ok(_) => panic!("a merge with to_world loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("m.xml:9") && e.contains("to_world"), "{e}");
+}
