@@ -193,3 +193,77 @@ fn merge_renders_its_shapes_as_written() {
     };
     assert!(e.contains("m.xml:9") && e.contains("to_world"), "{e}");
 }
+
+/// The `volume` texture reads its volume at the hit's world point: a
+/// diffuse plane under a uniform sky of 1 whose reflectance is a 2-voxel
+/// ramp (0.2, 0.8) over x ∈ [−1, 1] reflects the ramp's trilinear value,
+/// clamped past the voxel centres (Mitsuba 3.9.1: 0.2006, 0.4998, 0.6508
+/// at the three points below).
+#[test]
+fn volume_texture_reads_the_volume_at_the_hit() {
+    let dir = std::env::temp_dir().join(format!("yubin-voltex-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut vol = b"VOL\x03".to_vec();
+    for v in [1i32, 2, 1, 1, 1] {
+        vol.extend(v.to_le_bytes());
+    }
+    for v in [0.0f32, 0.0, 0.0, 1.0, 1.0, 1.0, 0.2, 0.8] {
+        vol.extend(v.to_le_bytes());
+    }
+    std::fs::write(dir.join("ramp.vol"), vol).unwrap();
+    let reading = |x: f32| -> (f64, f64) {
+        let xml = format!(
+            r#"<scene version="3.0.0">
+<integrator type="path"><integer name="max_depth" value="2"/></integrator>
+<sensor type="radiancemeter"><point name="origin" value="{x}, 0, 1"/><vector name="direction" value="0, 0, -1"/>
+  <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="1"/><rfilter type="box"/></film>
+</sensor>
+<emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
+<shape type="rectangle"><bsdf type="diffuse">
+  <texture type="volume" name="reflectance">
+    <volume type="gridvolume" name="volume">
+      <string name="filename" value="ramp.vol"/>
+      <transform name="to_world"><scale value="2"/><translate value="-1, -1, -1"/></transform>
+    </volume>
+  </texture>
+</bsdf></shape>
+</scene>"#
+        );
+        let loaded =
+            load_scene_str(&xml, &dir.join("voltex.xml"), &[]).unwrap_or_else(|e| panic!("{e}"));
+        let out = render(
+            &loaded.scene,
+            loaded.integrator.as_ref(),
+            &RenderSettings { spp: 4096, seed: 1 },
+            &|_| {},
+        );
+        let v: Vec<f64> = out
+            .image
+            .data
+            .chunks_exact(3)
+            .map(|c| f64::from(c[1]))
+            .collect();
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (mean, (var / n).sqrt().max(1e-6))
+    };
+    for (x, expected) in [(-0.75, 0.2), (0.0, 0.5), (0.25, 0.65)] {
+        let (mean, se) = reading(x);
+        let z = (mean - expected) / se;
+        assert!(z.abs() < 4.0, "x = {x}: {mean} ± {se}, expected {expected}");
+    }
+    // The volume must be one: a colour is refused at its line.
+    let xml = r#"<scene version="3.0.0"><texture type="volume" id="t">
+  <rgb name="volume" value="0.5"/>
+</texture></scene>"#;
+    let e = match load_scene_str(xml, &dir.join("bad.xml"), &[]) {
+        Ok(_) => panic!("a colour volume loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.contains("bad.xml:1") && e.contains("needs a nested volume"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -27,6 +27,7 @@ mod normal_deviation;
 mod perlin;
 mod rawconstant;
 mod scale;
+mod volume;
 
 pub use bitmap::{Bitmap, FilterType, WrapMode};
 pub use checkerboard::Checkerboard;
@@ -42,6 +43,7 @@ pub use normal_deviation::NormalDeviation;
 pub use perlin::Perlin;
 pub use rawconstant::RawConstant;
 pub use scale::Scale;
+pub use volume::VolumeTexture;
 
 use crate::interaction::SurfaceInteraction;
 use crate::material::Materials;
@@ -64,7 +66,7 @@ pub trait TextureModel {
 }
 
 /// A texture (closed enum; see the module docs).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Texture {
     /// `bitmap`.
     Bitmap(Bitmap),
@@ -86,6 +88,8 @@ pub enum Texture {
     Scale(Scale),
     /// `rawconstant`.
     RawConstant(RawConstant),
+    /// `volume`.
+    Volume(VolumeTexture),
 }
 
 macro_rules! dispatch {
@@ -93,6 +97,7 @@ macro_rules! dispatch {
         match $self {
             Texture::Bitmap($t) => $e,
             Texture::Checkerboard($t) => $e,
+            Texture::Volume($t) => $e,
             Texture::Fbm($t) => $e,
             Texture::Grid($t) => $e,
             Texture::MeshAttribute($t) => $e,
@@ -257,4 +262,7 @@ pub const PLUGINS: &[(&str, TextureFromParams)] = &[
         Ok(Texture::RawConstant(RawConstant::from_params(p)?))
     }),
     ("scale", |p| Ok(Texture::Scale(Scale::from_params(p)?))),
+    ("volume", |p| {
+        Ok(Texture::Volume(VolumeTexture::from_params(p)?))
+    }),
 ];

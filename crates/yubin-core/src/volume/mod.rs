@@ -77,6 +77,23 @@ impl Volume {
         }
     }
 
+    /// The mean luminance over the volume's box (16³ points, its value
+    /// for a constant volume).
+    pub fn mean_luminance(&self) -> f32 {
+        let Some((to_world, b)) = self.extent() else {
+            return crate::spectrum::luminance(self.eval(Vec3::ZERO));
+        };
+        let n = 16;
+        let mut sum = 0.0f64;
+        for i in 0..n * n * n {
+            let t = Vec3::new((i % n) as f32, (i / n % n) as f32, (i / (n * n)) as f32);
+            let local = b.min + (b.max - b.min) * (t + 0.5) / n as f32;
+            let p = to_world.m.transform_point3(local);
+            sum += f64::from(crate::spectrum::luminance(self.eval(p)));
+        }
+        (sum / (n * n * n) as f64) as f32
+    }
+
     /// A box (in the volume's own space, with the map from world space to
     /// it) that holds all of the volume a medium reads: heterogeneous media
     /// are empty outside it (as Mitsuba's are outside their volume's
