@@ -603,7 +603,7 @@ pub(crate) mod tests {
                 ior,
                 ..Principled::new(Rgb::new(0.5, 0.4, 0.3))
             })]);
-            m.textures.push(checker.clone());
+            m.textures.push(checker);
             m
         };
         let eta_of = |s: f32| 2.0 / (1.0 - (0.08 * s).sqrt()) - 1.0;

@@ -27,7 +27,6 @@
 use super::PhaseFunction;
 use crate::params::{Family, ParamError, Params};
 use glam::{Vec2, Vec3};
-use std::sync::Arc;
 
 /// Builds the phase function from its scene parameters.
 pub(super) fn from_params(p: &mut dyn Params) -> Result<PhaseFunction, ParamError> {
@@ -54,10 +53,13 @@ pub(super) fn from_params(p: &mut dyn Params) -> Result<PhaseFunction, ParamErro
             ),
         )
     })?;
-    Ok(PhaseFunction::Blend(Arc::new(Blend {
-        weight: weight.clamp(0.0, 1.0),
-        parts: [first, second],
-    })))
+    Ok(PhaseFunction::Blend(
+        Blend {
+            weight: weight.clamp(0.0, 1.0),
+            parts: [first, second],
+        }
+        .interned(),
+    ))
 }
 
 /// Two phase functions and the second one's share.
@@ -70,6 +72,13 @@ pub struct Blend {
 }
 
 impl Blend {
+    /// The blend stored for the program's life, once per content (so that
+    /// a phase function stays a `Copy` value).
+    pub fn interned(self) -> &'static Blend {
+        static INTERNED: std::sync::Mutex<Vec<&'static Blend>> = std::sync::Mutex::new(Vec::new());
+        crate::shape::interned(&INTERNED, self)
+    }
+
     /// p(wo, wi).
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> f32 {
         let [a, b] = &self.parts;

@@ -19,10 +19,9 @@ pub use tabphase::Table;
 
 use crate::params::{plugin_of, ParamError, Params};
 use glam::{Vec2, Vec3};
-use std::sync::Arc;
 
 /// A phase function.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PhaseFunction {
     /// `isotropic`: 1 / 4π.
     Isotropic,
@@ -33,10 +32,10 @@ pub enum PhaseFunction {
     },
     /// `rayleigh`: 3 (1 + cos²θ) / 16π.
     Rayleigh,
-    /// `tabphase`: tabulated over cos θ.
-    Tabulated(Arc<Table>),
-    /// `blendphase`: a mix of two.
-    Blend(Arc<Blend>),
+    /// `tabphase`: tabulated over cos θ (interned).
+    Tabulated(&'static Table),
+    /// `blendphase`: a mix of two (interned).
+    Blend(&'static Blend),
 }
 
 /// A sampled direction.
@@ -132,7 +131,7 @@ mod tests {
         let mut v = vec![PhaseFunction::Isotropic, PhaseFunction::Rayleigh];
         v.extend([-0.9, -0.5, 0.0, 0.3, 0.9].map(|g| PhaseFunction::HenyeyGreenstein { g }));
         let table = |values: &[f32]| {
-            PhaseFunction::Tabulated(Arc::new(Table::new(values.to_vec()).unwrap()))
+            PhaseFunction::Tabulated(Table::new(values.to_vec()).unwrap().interned())
         };
         // Two nodes, a forward peak with zeros, an uneven table.
         v.extend([
@@ -141,10 +140,13 @@ mod tests {
             table(&[1.0, 3.0, 2.0, 0.0, 2.5]),
         ]);
         let blend = |weight: f32, a: PhaseFunction, b: PhaseFunction| {
-            PhaseFunction::Blend(Arc::new(Blend {
-                weight,
-                parts: [a, b],
-            }))
+            PhaseFunction::Blend(
+                Blend {
+                    weight,
+                    parts: [a, b],
+                }
+                .interned(),
+            )
         };
         v.extend([
             blend(
@@ -237,7 +239,7 @@ mod tests {
     #[test]
     fn tabphase_reads_its_table_as_mitsuba_does() {
         let t = Table::new(vec![1.0, 2.0, 3.0]).unwrap();
-        let f = PhaseFunction::Tabulated(Arc::new(t.clone()));
+        let f = PhaseFunction::Tabulated(t.clone().interned());
         let two_pi = 2.0 * std::f32::consts::PI;
         let wo = Vec3::Z;
         let at = |mu: f32| {
@@ -262,7 +264,7 @@ mod tests {
         let hg = PhaseFunction::HenyeyGreenstein { g: 0.8 };
         let b = Blend {
             weight: 0.25,
-            parts: [PhaseFunction::Isotropic, hg.clone()],
+            parts: [PhaseFunction::Isotropic, hg],
         };
         let expected = 0.75 / (4.0 * std::f32::consts::PI) + 0.25 * hg.eval(wo, Vec3::X);
         assert!((b.eval(wo, Vec3::X) - expected).abs() < 1e-7);

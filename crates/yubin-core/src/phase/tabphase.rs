@@ -26,7 +26,6 @@ use super::{about_travel, PhaseFunction};
 use crate::params::{ParamError, Params};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
-use std::sync::Arc;
 
 /// A tabulated phase function, normalized.
 #[derive(Clone, Debug, PartialEq)]
@@ -54,7 +53,7 @@ pub(super) fn from_params(p: &mut dyn Params) -> Result<PhaseFunction, ParamErro
         })
         .collect::<Result<_, _>>()?;
     Table::new(values)
-        .map(|t| PhaseFunction::Tabulated(Arc::new(t)))
+        .map(|t| PhaseFunction::Tabulated(t.interned()))
         .map_err(|why| p.param_error("values", &why))
 }
 
@@ -83,6 +82,13 @@ impl Table {
                 .collect(),
             cdf: cdf.iter().map(|c| (c / total) as f32).collect(),
         })
+    }
+
+    /// The table stored for the program's life, once per content (so that
+    /// a phase function stays a `Copy` value).
+    pub fn interned(self) -> &'static Table {
+        static INTERNED: std::sync::Mutex<Vec<&'static Table>> = std::sync::Mutex::new(Vec::new());
+        crate::shape::interned(&INTERNED, self)
     }
 
     /// The normalized table at `mu` = cos θ, linear between nodes.

@@ -66,7 +66,7 @@ pub trait TextureModel {
 }
 
 /// A texture (closed enum; see the module docs).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Texture {
     /// `bitmap`.
     Bitmap(Bitmap),

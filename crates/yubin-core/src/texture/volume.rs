@@ -31,12 +31,12 @@ use crate::spectrum::luminance;
 use crate::volume::Volume;
 use crate::Rgb;
 use glam::Vec2;
-use std::sync::Arc;
 
 /// A volume read at the hit point.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VolumeTexture {
-    volume: Arc<Volume>,
+    /// The volume, interned (so that a texture stays a `Copy` value).
+    volume: &'static Volume,
 }
 
 impl VolumeTexture {
@@ -44,13 +44,19 @@ impl VolumeTexture {
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
         if let Some(mut child) = p.named_child(Family::Volume, "volume")? {
             return Ok(Self {
-                volume: Arc::new(crate::volume::from_params(&mut *child)?),
+                volume: interned(crate::volume::from_params(&mut *child)?),
             });
         }
         Err(p.error(
             "needs a nested volume named \"volume\" (<volume type=\"gridvolume\" name=\"volume\">)",
         ))
     }
+}
+
+/// `volume` stored for the program's life, once per content.
+fn interned(volume: Volume) -> &'static Volume {
+    static INTERNED: std::sync::Mutex<Vec<&'static Volume>> = std::sync::Mutex::new(Vec::new());
+    crate::shape::interned(&INTERNED, volume)
 }
 
 impl TextureModel for VolumeTexture {
