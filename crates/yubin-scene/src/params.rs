@@ -48,6 +48,7 @@ fn category_of(family: Family) -> Category {
         Family::Phase => Category::Phase,
         Family::Volume => Category::Volume,
         Family::Sdf => Category::Sdf,
+        Family::Sensor => Category::Sensor,
     }
 }
 

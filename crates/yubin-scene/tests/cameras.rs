@@ -217,3 +217,55 @@ fn bokeh_scene_renders_with_every_aperture() {
         assert!(image.iter().all(|v| v.is_finite()) && image.iter().sum::<f32>() > 0.0);
     }
 }
+
+/// A `batch` of radiancemeters (each held to its own 1 × 1 film, as in
+/// Mitsuba) under the `depth` integrator reads each meter's distance, left
+/// to right in the order written (Mitsuba 3.9.1: 4.99991, 6.99991,
+/// 8.99991); a film whose width the sensors do not divide, an empty batch
+/// and a batch in a batch are refused at their line.
+#[test]
+fn batch_places_its_sensors_left_to_right() {
+    let meter = |z: f32| {
+        format!(
+            r#"<sensor type="radiancemeter"><point name="origin" value="0, 0, {z}"/><vector name="direction" value="0, 0, -1"/>
+  <film type="hdrfilm"><integer name="width" value="1"/><integer name="height" value="1"/></film></sensor>"#
+        )
+    };
+    let xml = |inner: &str, width: u32| {
+        format!(
+            r#"<scene version="3.0.0">
+<integrator type="depth"/>
+<sensor type="batch">
+{inner}
+  <film type="hdrfilm"><integer name="width" value="{width}"/><integer name="height" value="1"/><rfilter type="box"/></film>
+</sensor>
+<shape type="rectangle"/>
+</scene>"#
+        )
+    };
+    let three = format!("{}{}{}", meter(5.0), meter(7.0), meter(9.0));
+    let loaded = load_scene_str(&xml(&three, 3), Path::new("batch.xml"), &[]).unwrap();
+    let out = render(
+        &loaded.scene,
+        loaded.integrator.as_ref(),
+        &RenderSettings { spp: 4, seed: 0 },
+        &|_| {},
+    );
+    let depths: Vec<f32> = out.image.data.chunks_exact(3).map(|c| c[0]).collect();
+    for (got, want) in depths.iter().zip([5.0f32, 7.0, 9.0]) {
+        assert!((got - (want - 8.94e-5)).abs() < 1e-4, "{depths:?}");
+    }
+    let error = |text: &str| match load_scene_str(text, Path::new("batch.xml"), &[]) {
+        Ok(_) => panic!("{text} loaded"),
+        Err(e) => e.to_string(),
+    };
+    let e = error(&xml(&three, 4));
+    assert!(
+        e.contains("batch.xml:3") && e.contains("multiple of its number of sensors (3)"),
+        "{e}"
+    );
+    let e = error(&xml("", 3));
+    assert!(e.contains("needs at least one nested sensor"), "{e}");
+    let e = error(&xml(r#"<sensor type="batch"/>"#, 3));
+    assert!(e.contains("cannot hold another batch"), "{e}");
+}

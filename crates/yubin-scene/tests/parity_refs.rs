@@ -82,3 +82,11 @@ fn parity_principled() {
 fn parity_depth() {
     parity("depth");
 }
+
+/// The `batch` sensor: a perspective and an orthographic sensor side by
+/// side (each as alone on a 32×32 film), the default gaussian filter
+/// spreading samples across the seam.
+#[test]
+fn parity_batch() {
+    parity("batch");
+}

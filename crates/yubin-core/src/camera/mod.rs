@@ -2,6 +2,7 @@
 //! of the full image, (0, 0) the top-left corner) to a world-space ray.
 
 mod aperture;
+mod batch;
 mod orthographic;
 mod perspective;
 pub mod physical;
@@ -9,6 +10,7 @@ mod radiancemeter;
 mod thinlens;
 
 pub use aperture::Aperture;
+pub use batch::Batch;
 pub use orthographic::Orthographic;
 pub(crate) use perspective::{
     clip_planes, field_of_view, focus_distance, image_plane_half_extent, rigid_to_world,
@@ -41,6 +43,9 @@ pub const PLUGINS: &[(&str, CameraFromParams)] = &[
     }),
     ("radiancemeter", |p, size| {
         Ok(Camera::Radiancemeter(Radiancemeter::from_params(p, size)?))
+    }),
+    ("batch", |p, size| {
+        Ok(Camera::Batch(Batch::from_params(p, size)?))
     }),
 ];
 
@@ -108,6 +113,8 @@ pub enum Camera {
     Orthographic(Orthographic),
     /// `radiancemeter`: one ray.
     Radiancemeter(Radiancemeter),
+    /// `batch`: several side by side.
+    Batch(Batch),
 }
 
 impl Camera {
@@ -120,7 +127,11 @@ impl Camera {
     /// True when rays use a lens sample.
     #[inline]
     pub fn needs_lens_sample(&self) -> bool {
-        matches!(self, Camera::Perspective(c) if c.lens().is_some())
+        match self {
+            Camera::Perspective(c) => c.lens().is_some(),
+            Camera::Batch(b) => b.needs_lens_sample(),
+            _ => false,
+        }
     }
 
     /// Connects the camera to the world point `p` through the lens point
@@ -130,7 +141,7 @@ impl Camera {
     pub fn sample_towards(&self, p: glam::Vec3, u_lens: Vec2) -> Option<SensorSample> {
         match self {
             Camera::Perspective(c) => c.sample_towards(p, u_lens),
-            Camera::Orthographic(_) | Camera::Radiancemeter(_) => None,
+            Camera::Orthographic(_) | Camera::Radiancemeter(_) | Camera::Batch(_) => None,
         }
     }
 
@@ -141,6 +152,7 @@ impl Camera {
             Camera::Perspective(c) => c.sample_lens(u),
             Camera::Orthographic(c) => c.position(),
             Camera::Radiancemeter(c) => c.origin(),
+            Camera::Batch(b) => b.sample_lens(u),
         }
     }
 
@@ -151,7 +163,7 @@ impl Camera {
     pub fn ray_towards(&self, lens_p: glam::Vec3, d: glam::Vec3) -> Option<(Ray, Vec2, f32)> {
         match self {
             Camera::Perspective(c) => c.ray_towards(lens_p, d),
-            Camera::Orthographic(_) | Camera::Radiancemeter(_) => None,
+            Camera::Orthographic(_) | Camera::Radiancemeter(_) | Camera::Batch(_) => None,
         }
     }
 
@@ -164,6 +176,7 @@ impl Camera {
             Camera::Perspective(c) => c.generate_ray(film_p, u_lens),
             Camera::Orthographic(c) => Some(c.generate_ray(film_p)),
             Camera::Radiancemeter(c) => Some(c.ray()),
+            Camera::Batch(b) => b.generate_ray(film_p, u_lens),
         }
     }
 

@@ -104,6 +104,8 @@ pub enum Family {
     Volume,
     /// `<sdf>`: a node of an `sdf` shape's distance function.
     Sdf,
+    /// `<sensor>`: a `batch` sensor's sensors.
+    Sensor,
 }
 
 /// The constructor of `p`'s plugin type in a family's plugin table

@@ -418,6 +418,7 @@ fn family_label(f: Family) -> &'static str {
         Family::Phase => "phase_function",
         Family::Volume => "volume",
         Family::Sdf => "sdf",
+        Family::Sensor => "sensor",
     }
 }
 
