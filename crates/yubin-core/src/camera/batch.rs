@@ -59,7 +59,7 @@ impl Batch {
         if n == 0 {
             return Err(p.error("needs at least one nested sensor"));
         }
-        if size[0] % n as u32 != 0 {
+        if !size[0].is_multiple_of(n as u32) {
             return Err(p.error(&format!(
                 "its film's width ({}) must be a multiple of its number of sensors ({n})",
                 size[0]
