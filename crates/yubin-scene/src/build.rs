@@ -87,6 +87,7 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         parents: Vec::new(),
         object_keys: HashMap::new(),
         worlds: HashMap::new(),
+        shape_sensor: None,
     };
     let root = &desc.root;
     let integrator = match root.single_child(Category::Integrator)? {
@@ -94,7 +95,8 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
         None => Box::new(PathIntegrator::default()),
     };
     let mut seed = 0;
-    if let Some(sensor) = root.single_child(Category::Sensor)? {
+    let top_sensor = root.single_child(Category::Sensor)?;
+    if let Some(sensor) = top_sensor {
         seed = b.sensor(&sensor.object)?;
         if integrator.particle_tracer().is_some() && !b.sb.camera_can_connect() {
             return Err(sensor.object.error(format!(
@@ -196,6 +198,32 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
             )));
         }
     }
+    if let Some((shape_seed, loc)) = &b.shape_sensor {
+        if let Some(top) = top_sensor {
+            return Err(SceneError::at(
+                loc,
+                format!(
+                    "a scene has one sensor, and this one is the second (the first is at line {})",
+                    top.loc.line
+                ),
+            ));
+        }
+        seed = *shape_seed;
+    } else if let (Some(top), Some(yubin_core::camera::Camera::Irradiancemeter(m))) =
+        (top_sensor, b.sb.current_camera())
+    {
+        if !m.has_shape() {
+            return Err(top.object.error(
+                "an irradiancemeter measures the shape it is written in: put it inside a <shape>",
+            ));
+        }
+    }
+    if b.shape_sensor.is_some() && integrator.particle_tracer().is_some() {
+        return Err(SceneError::at(
+            &b.shape_sensor.as_ref().expect("checked").1,
+            "ptracer connects paths from the lights to the camera, which an irradiancemeter cannot be",
+        ));
+    }
     b.sb.uv_unread_by_integrator(!integrator.reads_uv());
     let scene =
         b.sb.build()
@@ -263,6 +291,9 @@ pub(crate) struct Builder<'a> {
     object_keys: HashMap<usize, String>,
     /// The worlds by id (`<world id="...">`), created before any shape.
     worlds: HashMap<String, u32>,
+    /// A sensor written in a shape (an `irradiancemeter`): its sampler's
+    /// seed and where it was written.
+    shape_sensor: Option<(u32, Location)>,
 }
 
 /// The ids of `obj` and every object nested in it.
@@ -623,6 +654,7 @@ impl Builder<'_> {
             )));
         }
         let analytic = !matches!(shape, Shape::Mesh(_));
+        self.shape_sensor(obj, group, shape)?;
         let id = self
             .sb
             .add_shape_with_emitter(group, shape, bsdf, emission.as_ref().map(|(e, ..)| *e))
@@ -654,6 +686,39 @@ impl Builder<'_> {
                 .set_shape_media(id, interior, exterior)
                 .map_err(|e| obj.error(e.to_string()))?;
         }
+        Ok(())
+    }
+
+    /// The sensor written in `obj` (an `irradiancemeter` of `shape`), if
+    /// any: it becomes the scene's sensor.
+    fn shape_sensor(&mut self, obj: &Object, group: u32, shape: Shape) -> Result<(), SceneError> {
+        let Some(sensor) = obj.single_child(Category::Sensor)? else {
+            return Ok(());
+        };
+        sensor.used.set(true);
+        let o = &sensor.object;
+        if o.plugin_type != "irradiancemeter" {
+            return Err(o.error(format!(
+                "only an irradiancemeter can be written in a shape, not a \"{}\" sensor",
+                o.plugin_type
+            )));
+        }
+        if group != 0 {
+            return Err(o.error("an irradiancemeter cannot measure a shape of a shapegroup"));
+        }
+        if let Some((_, first)) = &self.shape_sensor {
+            return Err(o.error(format!(
+                "a scene has one sensor, and this one is the second (the first is at line {})",
+                first.line
+            )));
+        }
+        let seed = self.sensor(o)?;
+        if let Some(yubin_core::camera::Camera::Irradiancemeter(m)) = self.sb.current_camera() {
+            self.sb.camera(yubin_core::camera::Camera::Irradiancemeter(
+                m.with_shape(shape),
+            ));
+        }
+        self.shape_sensor = Some((seed, sensor.loc.clone()));
         Ok(())
     }
 

@@ -269,3 +269,101 @@ fn batch_places_its_sensors_left_to_right() {
     let e = error(&xml(r#"<sensor type="batch"/>"#, 3));
     assert!(e.contains("cannot hold another batch"), "{e}");
 }
+
+/// An `irradiancemeter` written in a square measures the mean irradiance
+/// over it: under a parallel square emitter of radiance 1 one unit above,
+/// π times the form factor, computed here by quadrature (Mitsuba 3.9.1
+/// reads 1.30092 for 1.30456). On a 2 × 2 film each pixel measures its
+/// quarter of the square (column ↔ x, row ↔ y, as Mitsuba samples it):
+/// with the emitter moved over the (+x, +y) corner, that pixel reads
+/// most. Outside a shape, it is refused.
+#[test]
+fn irradiancemeter_measures_the_mean_irradiance_over_its_shape() {
+    let xml = |film: u32, shift: f32| {
+        format!(
+            r#"<scene version="3.0.0">
+<integrator type="path"/>
+<shape type="rectangle">
+  <sensor type="irradiancemeter">
+    <film type="hdrfilm"><integer name="width" value="{film}"/><integer name="height" value="{film}"/><rfilter type="box"/></film>
+  </sensor>
+</shape>
+<shape type="rectangle">
+  <transform name="to_world"><rotate x="1" angle="180"/><translate x="{shift}" y="{shift}" z="1"/></transform>
+  <emitter type="area"><rgb name="radiance" value="1, 1, 1"/></emitter>
+</shape>
+</scene>"#
+        )
+    };
+    // E at (x, y, 0) from the emitter [−1, 1]² + shift at z = 1, averaged
+    // over the receiver region [x0, x1] × [y0, y1] (midpoint rule).
+    let expected = |shift: f64, (x0, x1): (f64, f64), (y0, y1): (f64, f64)| {
+        let n = 24;
+        let mut sum = 0.0;
+        for a in 0..n * n {
+            let x = x0 + (x1 - x0) * ((a % n) as f64 + 0.5) / n as f64;
+            let y = y0 + (y1 - y0) * ((a / n) as f64 + 0.5) / n as f64;
+            for b in 0..n * n {
+                let ex = -1.0 + shift + 2.0 * ((b % n) as f64 + 0.5) / n as f64;
+                let ey = -1.0 + shift + 2.0 * ((b / n) as f64 + 0.5) / n as f64;
+                let r2 = (ex - x).powi(2) + (ey - y).powi(2) + 1.0;
+                sum += 1.0 / (r2 * r2) * (4.0 / (n * n) as f64);
+            }
+        }
+        sum / (n * n) as f64
+    };
+    let readings = |film: u32, shift: f32| -> Vec<Vec<f64>> {
+        let loaded = load_scene_str(&xml(film, shift), Path::new("irr.xml"), &[]).unwrap();
+        (0..8)
+            .map(|seed| {
+                let out = render(
+                    &loaded.scene,
+                    loaded.integrator.as_ref(),
+                    &RenderSettings { spp: 4096, seed },
+                    &|_| {},
+                );
+                out.image
+                    .data
+                    .chunks_exact(3)
+                    .map(|c| f64::from(c[0]))
+                    .collect()
+            })
+            .collect()
+    };
+    let z = |runs: &[Vec<f64>], pixel: usize, want: f64| {
+        let v: Vec<f64> = runs.iter().map(|r| r[pixel]).collect();
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (mean - want) / (var / n).sqrt()
+    };
+    let whole = expected(0.0, (-1.0, 1.0), (-1.0, 1.0));
+    assert!((whole - 1.30456).abs() < 2e-3, "quadrature {whole}");
+    let one = readings(1, 0.0);
+    assert!(z(&one, 0, whole).abs() < 4.0, "z = {}", z(&one, 0, whole));
+    assert!(z(&one, 0, whole * 1.03).abs() > 4.0, "a 3 % error passes");
+    let quarters = readings(2, 0.6);
+    for (pixel, (xs, ys)) in [
+        ((-1.0, 0.0), (-1.0, 0.0)),
+        ((0.0, 1.0), (-1.0, 0.0)),
+        ((-1.0, 0.0), (0.0, 1.0)),
+        ((0.0, 1.0), (0.0, 1.0)),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let want = expected(0.6, xs, ys);
+        let zs = z(&quarters, pixel, want);
+        assert!(zs.abs() < 4.0, "pixel {pixel}: z = {zs} (expected {want})");
+    }
+    let outside =
+        r#"<scene version="3.0.0"><sensor type="irradiancemeter"/><shape type="disk"/></scene>"#;
+    let e = match load_scene_str(outside, Path::new("irr.xml"), &[]) {
+        Ok(_) => panic!("an irradiancemeter outside a shape loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.contains("irr.xml:1") && e.contains("put it inside a <shape>"),
+        "{e}"
+    );
+}

@@ -3,6 +3,7 @@
 
 mod aperture;
 mod batch;
+mod irradiancemeter;
 mod orthographic;
 mod perspective;
 pub mod physical;
@@ -11,6 +12,7 @@ mod thinlens;
 
 pub use aperture::Aperture;
 pub use batch::Batch;
+pub use irradiancemeter::Irradiancemeter;
 pub use orthographic::Orthographic;
 pub(crate) use perspective::{
     clip_planes, field_of_view, focus_distance, image_plane_half_extent, rigid_to_world,
@@ -46,6 +48,11 @@ pub const PLUGINS: &[(&str, CameraFromParams)] = &[
     }),
     ("batch", |p, size| {
         Ok(Camera::Batch(Batch::from_params(p, size)?))
+    }),
+    ("irradiancemeter", |p, size| {
+        Ok(Camera::Irradiancemeter(Irradiancemeter::from_params(
+            p, size,
+        )?))
     }),
 ];
 
@@ -115,6 +122,8 @@ pub enum Camera {
     Radiancemeter(Radiancemeter),
     /// `batch`: several side by side.
     Batch(Batch),
+    /// `irradiancemeter`: the irradiance over a shape.
+    Irradiancemeter(Irradiancemeter),
 }
 
 impl Camera {
@@ -130,6 +139,7 @@ impl Camera {
         match self {
             Camera::Perspective(c) => c.lens().is_some(),
             Camera::Batch(b) => b.needs_lens_sample(),
+            Camera::Irradiancemeter(_) => true,
             _ => false,
         }
     }
@@ -141,7 +151,7 @@ impl Camera {
     pub fn sample_towards(&self, p: glam::Vec3, u_lens: Vec2) -> Option<SensorSample> {
         match self {
             Camera::Perspective(c) => c.sample_towards(p, u_lens),
-            Camera::Orthographic(_) | Camera::Radiancemeter(_) | Camera::Batch(_) => None,
+            _ => None,
         }
     }
 
@@ -153,6 +163,7 @@ impl Camera {
             Camera::Orthographic(c) => c.position(),
             Camera::Radiancemeter(c) => c.origin(),
             Camera::Batch(b) => b.sample_lens(u),
+            Camera::Irradiancemeter(_) => glam::Vec3::ZERO,
         }
     }
 
@@ -163,7 +174,7 @@ impl Camera {
     pub fn ray_towards(&self, lens_p: glam::Vec3, d: glam::Vec3) -> Option<(Ray, Vec2, f32)> {
         match self {
             Camera::Perspective(c) => c.ray_towards(lens_p, d),
-            Camera::Orthographic(_) | Camera::Radiancemeter(_) | Camera::Batch(_) => None,
+            _ => None,
         }
     }
 
@@ -177,6 +188,32 @@ impl Camera {
             Camera::Orthographic(c) => Some(c.generate_ray(film_p)),
             Camera::Radiancemeter(c) => Some(c.ray()),
             Camera::Batch(b) => b.generate_ray(film_p, u_lens),
+            Camera::Irradiancemeter(c) => c.generate_ray(&[], film_p, u_lens),
+        }
+    }
+
+    /// [`Camera::generate_ray`], with the scene's `meshes`, which an
+    /// `irradiancemeter` on a mesh samples.
+    #[inline]
+    pub fn generate_ray_in(
+        &self,
+        meshes: &[crate::shape::TriangleMesh],
+        film_p: Vec2,
+        u_lens: Vec2,
+    ) -> Option<Ray> {
+        match self {
+            Camera::Irradiancemeter(c) => c.generate_ray(meshes, film_p, u_lens),
+            _ => self.generate_ray(film_p, u_lens),
+        }
+    }
+
+    /// What each sample's value is multiplied by: π for an
+    /// `irradiancemeter` (its rays are cosine-distributed), else 1.
+    #[inline]
+    pub fn sample_weight(&self) -> f32 {
+        match self {
+            Camera::Irradiancemeter(_) => std::f32::consts::PI,
+            _ => 1.0,
         }
     }
 

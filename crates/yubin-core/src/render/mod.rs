@@ -898,7 +898,7 @@ impl TileJob<'_> {
             } else {
                 Vec2::ZERO
             };
-            scene.camera.generate_ray(film_p, u_lens)
+            scene.camera.generate_ray_in(&scene.meshes, film_p, u_lens)
         });
         CameraSample {
             x,
@@ -936,6 +936,10 @@ impl TileJob<'_> {
         let values = &mut out.values[..n * self.channels];
         self.integrator
             .sample_packet(&self.scene, &batch.rays, &mut batch.streams, values);
+        let weight = self.scene.camera.sample_weight();
+        if weight != 1.0 {
+            values.iter_mut().for_each(|v| *v *= weight);
+        }
         // RGB samples' footprints are weighed eight at a time.
         let by_eight = self.channels == 3 && !self.filter.is_box();
         for (spots, values) in batch.spots.chunks(8).zip(values.chunks(8 * self.channels)) {

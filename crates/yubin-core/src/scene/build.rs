@@ -539,6 +539,11 @@ impl SceneBuilder {
         self
     }
 
+    /// The camera set so far.
+    pub fn current_camera(&self) -> Option<Camera> {
+        self.camera
+    }
+
     /// True unless the camera set is one that paths from the lights cannot
     /// reach ([`Camera::can_connect`]).
     pub fn camera_can_connect(&self) -> bool {
