@@ -112,6 +112,9 @@ impl Sensor {
 }
 
 /// A camera.
+// An irradiancemeter holds its shape by value: a scene has one camera,
+// read in place, so its size costs nothing per ray.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Camera {
     /// `perspective`, and `thinlens` and `physical` (with a lens).
