@@ -218,9 +218,9 @@ pub fn build_scene(desc: &SceneDesc) -> Result<LoadedScene, SceneError> {
             ));
         }
     }
-    if b.shape_sensor.is_some() && integrator.particle_tracer().is_some() {
+    if let (Some((_, loc)), Some(_)) = (&b.shape_sensor, integrator.particle_tracer()) {
         return Err(SceneError::at(
-            &b.shape_sensor.as_ref().expect("checked").1,
+            loc,
             "ptracer connects paths from the lights to the camera, which an irradiancemeter cannot be",
         ));
     }
