@@ -33,6 +33,18 @@ const FAMILIES: &[(&str, &str)] = &[
 /// directory, path relative to `crates/`): listed with their family.
 const FRONT_END_PLUGINS: &[(&str, &str)] = &[("shape", "yubin-scene/src/gltf.rs")];
 
+/// The spectrum plugins: Mitsuba 3.9.1's, all of which yubin's builder
+/// reads (as RGB).
+const SPECTRA: &[&str] = &[
+    "blackbody",
+    "d65",
+    "irregular",
+    "rawconstant",
+    "regular",
+    "srgb",
+    "uniform",
+];
+
 /// Every plugin Mitsuba 3.9.1 ships (the `mitsuba/plugins` folder of its
 /// wheel), by the XML tag that holds it.
 const MITSUBA_PLUGINS: &[(&str, &[&str])] = &[
@@ -89,18 +101,7 @@ const MITSUBA_PLUGINS: &[(&str, &[&str])] = &[
         "texture",
         &["bitmap", "checkerboard", "mesh_attribute", "volume"],
     ),
-    (
-        "spectrum",
-        &[
-            "blackbody",
-            "d65",
-            "irregular",
-            "rawconstant",
-            "regular",
-            "srgb",
-            "uniform",
-        ],
-    ),
+    ("spectrum", SPECTRA),
     (
         "emitter",
         &[
@@ -197,18 +198,7 @@ const SPECTRAL: &[&str] = &["specfilm"];
 const BUILDER_PLUGINS: &[(&str, &[&str])] = &[
     ("shape", &["gltf", "instance", "merge", "shapegroup"]),
     ("emitter", &["area", "directionalarea"]),
-    (
-        "spectrum",
-        &[
-            "blackbody",
-            "d65",
-            "irregular",
-            "rawconstant",
-            "regular",
-            "srgb",
-            "uniform",
-        ],
-    ),
+    ("spectrum", SPECTRA),
 ];
 
 /// The type strings yubin reads for `tag`: its family's plugin table and
