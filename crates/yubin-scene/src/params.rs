@@ -49,6 +49,7 @@ fn category_of(family: Family) -> Category {
         Family::Volume => Category::Volume,
         Family::Sdf => Category::Sdf,
         Family::Sensor => Category::Sensor,
+        Family::Shape => Category::Shape,
     }
 }
 

@@ -367,3 +367,75 @@ fn irradiancemeter_measures_the_mean_irradiance_over_its_shape() {
         "{e}"
     );
 }
+
+/// A `distant` sensor reads the radiance a diffuse square (ρ = 0.5, lit
+/// straight down by irradiance 1) sends along −d, averaged over its
+/// target, as Mitsuba 3.9.1 does: ρ/π over the square itself (obliquely
+/// too) or at a point of it, a quarter of that over a target twice as
+/// wide, the square's share of the bounding sphere's disk without a
+/// target, nothing from behind.
+#[test]
+fn distant_averages_over_its_target() {
+    let reading = |direction: &str, target: &str| -> (f64, f64) {
+        let xml = format!(
+            r#"<scene version="3.0.0">
+<integrator type="path"/>
+<sensor type="distant">
+  <vector name="direction" value="{direction}"/>
+  {target}
+  <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="1"/><rfilter type="box"/></film>
+</sensor>
+<emitter type="directional"><vector name="direction" value="0, 0, -1"/><rgb name="irradiance" value="1, 1, 1"/></emitter>
+<shape type="rectangle"><bsdf type="diffuse"><rgb name="reflectance" value="0.5, 0.5, 0.5"/></bsdf></shape>
+</scene>"#
+        );
+        let loaded =
+            load_scene_str(&xml, Path::new("distant.xml"), &[]).unwrap_or_else(|e| panic!("{e}"));
+        let out = render(
+            &loaded.scene,
+            loaded.integrator.as_ref(),
+            &RenderSettings { spp: 2048, seed: 4 },
+            &|_| {},
+        );
+        let v: Vec<f64> = out
+            .image
+            .data
+            .chunks_exact(3)
+            .map(|c| f64::from(c[0]))
+            .collect();
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (mean, (var / n).sqrt().max(1e-6))
+    };
+    let lambert = 0.5 / std::f64::consts::PI;
+    let rect = r#"<shape type="rectangle" name="target"/>"#;
+    let wide = r#"<shape type="rectangle" name="target"><transform name="to_world"><scale value="2"/></transform></shape>"#;
+    for (direction, target, want) in [
+        ("0, 0.6, -0.8", rect, lambert),
+        (
+            "0, 0, -1",
+            r#"<point name="target" value="0.2, 0.3, 0"/>"#,
+            lambert,
+        ),
+        ("0, 0, -1", wide, lambert / 4.0),
+        // The square's 4 of the disk's π·2 (the sphere of its box, R = √2).
+        ("0, 0, -1", "", lambert * 4.0 / (2.0 * std::f64::consts::PI)),
+        ("0, 0, 1", rect, 0.0),
+    ] {
+        let (mean, se) = reading(direction, target);
+        let z = (mean - want) / se;
+        assert!(
+            z.abs() < 4.0,
+            "{direction} {target}: {mean} ± {se}, expected {want}"
+        );
+    }
+    let both = r#"<scene version="3.0.0"><sensor type="distant"><vector name="direction" value="0,0,1"/>
+<transform name="to_world"><translate x="1"/></transform>
+<film type="hdrfilm"><integer name="width" value="1"/><integer name="height" value="1"/></film></sensor><shape type="disk"/></scene>"#;
+    let e = match load_scene_str(both, Path::new("distant.xml"), &[]) {
+        Ok(_) => panic!("direction and to_world both loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("distant.xml:1") && e.contains("not both"), "{e}");
+}

@@ -3,6 +3,7 @@
 
 mod aperture;
 mod batch;
+mod distant;
 mod irradiancemeter;
 mod orthographic;
 mod perspective;
@@ -12,6 +13,7 @@ mod thinlens;
 
 pub use aperture::Aperture;
 pub use batch::Batch;
+pub use distant::Distant;
 pub use irradiancemeter::Irradiancemeter;
 pub use orthographic::Orthographic;
 pub(crate) use perspective::{
@@ -48,6 +50,9 @@ pub const PLUGINS: &[(&str, CameraFromParams)] = &[
     }),
     ("batch", |p, size| {
         Ok(Camera::Batch(Batch::from_params(p, size)?))
+    }),
+    ("distant", |p, size| {
+        Ok(Camera::Distant(Distant::from_params(p, size)?))
     }),
     ("irradiancemeter", |p, size| {
         Ok(Camera::Irradiancemeter(Irradiancemeter::from_params(
@@ -127,6 +132,8 @@ pub enum Camera {
     Batch(Batch),
     /// `irradiancemeter`: the irradiance over a shape.
     Irradiancemeter(Irradiancemeter),
+    /// `distant`: the radiance leaving a target in one direction.
+    Distant(Distant),
 }
 
 impl Camera {
@@ -143,6 +150,7 @@ impl Camera {
             Camera::Perspective(c) => c.lens().is_some(),
             Camera::Batch(b) => b.needs_lens_sample(),
             Camera::Irradiancemeter(_) => true,
+            Camera::Distant(c) => c.needs_sample(),
             _ => false,
         }
     }
@@ -167,6 +175,7 @@ impl Camera {
             Camera::Radiancemeter(c) => c.origin(),
             Camera::Batch(b) => b.sample_lens(u),
             Camera::Irradiancemeter(_) => glam::Vec3::ZERO,
+            Camera::Distant(c) => c.origin(),
         }
     }
 
@@ -192,6 +201,7 @@ impl Camera {
             Camera::Radiancemeter(c) => Some(c.ray()),
             Camera::Batch(b) => b.generate_ray(film_p, u_lens),
             Camera::Irradiancemeter(c) => c.generate_ray(&[], film_p, u_lens),
+            Camera::Distant(c) => c.generate_ray(u_lens),
         }
     }
 

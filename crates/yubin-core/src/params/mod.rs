@@ -106,6 +106,8 @@ pub enum Family {
     Sdf,
     /// `<sensor>`: a `batch` sensor's sensors.
     Sensor,
+    /// `<shape>`: a `distant` sensor's target.
+    Shape,
 }
 
 /// The constructor of `p`'s plugin type in a family's plugin table

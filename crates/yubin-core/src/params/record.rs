@@ -419,6 +419,7 @@ fn family_label(f: Family) -> &'static str {
         Family::Volume => "volume",
         Family::Sdf => "sdf",
         Family::Sensor => "sensor",
+        Family::Shape => "shape",
     }
 }
 

@@ -603,7 +603,7 @@ impl SceneBuilder {
         }
         let uv_unread = self.uv_unread_by_integrator && self.materials.textures.is_empty();
         let free_frame = self.free_frames(uv_unread);
-        Ok(Scene {
+        let mut scene = Scene {
             edits: self.edits,
             uv_unread,
             free_frame,
@@ -628,7 +628,9 @@ impl SceneBuilder {
             instances: self.instances,
             placed_emitters,
             bsdf_flags,
-        })
+        };
+        scene.settle_camera();
+        Ok(scene)
     }
 
     /// Checks that the BSDFs a `twosided` refers to exist (the other

@@ -212,6 +212,14 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Gives the camera what it needs of the built scene: a `distant`
+    /// sensor its bounding sphere.
+    pub(crate) fn settle_camera(&mut self) {
+        if let crate::camera::Camera::Distant(d) = self.camera {
+            self.camera = crate::camera::Camera::Distant(d.with_scene_bounds(self.bounds()));
+        }
+    }
+
     /// World-space bounds of all geometry.
     pub fn bounds(&self) -> Bounds3 {
         self.groups

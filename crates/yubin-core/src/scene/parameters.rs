@@ -223,6 +223,8 @@ impl Scene {
         (self.rebuild(target, &record))
             .map_err(|e| ParamError(format!("scene parameter \"{key}\": {e}")))?;
         self.edits.editables[index].record = record;
+        // A moved shape or a new sensor: a distant sensor's reach.
+        self.settle_camera();
         Ok(())
     }
 
