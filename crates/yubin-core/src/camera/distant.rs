@@ -41,6 +41,8 @@ use glam::{Vec2, Vec3};
 const RAY_EPSILON: f32 = 8.940_697e-5;
 
 /// Where a distant sensor's rays land.
+// The shape is held by value, as an irradiancemeter's is: one per scene.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 enum Target {
     /// A disk through the scene's bounding sphere.
