@@ -406,19 +406,13 @@ fn decode_with_image_crate(path: &Path) -> Result<image::DynamicImage, SceneErro
         .len();
     limits.max_alloc = Some(Limit::TexturePixels.get().saturating_mul(16));
     reader.limits(limits);
-    let reopened = image::ImageReader::open(path)
-        .map_err(|e| io_error(path, e))?
-        .with_guessed_format()
-        .map_err(|e| io_error(path, e))?;
-    let (width, height) = reopened
-        .into_dimensions()
-        .map_err(|e| SceneError::file(path, format!("cannot decode image: {e}")))?;
+    let cannot = |e: image::ImageError| SceneError::file(path, format!("cannot decode image: {e}"));
+    let decoder = reader.into_decoder().map_err(cannot)?;
+    let (width, height) = image::ImageDecoder::dimensions(&decoder);
     check_texels(path, width as usize, height as usize)?;
     // At least one byte per texel, whatever the format.
     check_decoded_size(path, file_len, u64::from(width) * u64::from(height))?;
-    reader
-        .decode()
-        .map_err(|e| SceneError::file(path, format!("cannot decode image: {e}")))
+    image::DynamicImage::from_decoder(decoder).map_err(cannot)
 }
 
 /// Converts a decoded image to `f32`, keeping its channel count and

@@ -332,10 +332,8 @@ fn irradiancemeter_measures_the_mean_irradiance_over_its_shape() {
     };
     let z = |runs: &[Vec<f64>], pixel: usize, want: f64| {
         let v: Vec<f64> = runs.iter().map(|r| r[pixel]).collect();
-        let n = v.len() as f64;
-        let mean = v.iter().sum::<f64>() / n;
-        let var = v.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0);
-        (mean - want) / (var / n).sqrt()
+        let (mean, se) = common::mean_and_error(&v);
+        (mean - want) / se
     };
     let whole = expected(0.0, (-1.0, 1.0), (-1.0, 1.0));
     assert!((whole - 1.30456).abs() < 2e-3, "quadrature {whole}");
@@ -397,16 +395,8 @@ fn distant_averages_over_its_target() {
             &RenderSettings { spp: 2048, seed: 4 },
             &|_| {},
         );
-        let v: Vec<f64> = out
-            .image
-            .data
-            .chunks_exact(3)
-            .map(|c| f64::from(c[0]))
-            .collect();
-        let n = v.len() as f64;
-        let mean = v.iter().sum::<f64>() / n;
-        let var = v.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0);
-        (mean, (var / n).sqrt().max(1e-6))
+        let (mean, se) = common::pixel_mean_and_error(&out.image.data, 0);
+        (mean, se.max(1e-6))
     };
     let lambert = 0.5 / std::f64::consts::PI;
     let rect = r#"<shape type="rectangle" name="target"/>"#;

@@ -3,6 +3,8 @@
 //! `checkerboard` read as a float with Mitsuba's colours swapped (and
 //! yubin's `consistent_float` reading).
 
+mod common;
+
 use std::path::Path;
 use yubin_core::render::{render, RenderSettings};
 use yubin_scene::load_scene_str;
@@ -237,16 +239,8 @@ fn volume_texture_reads_the_volume_at_the_hit() {
             &RenderSettings { spp: 4096, seed: 1 },
             &|_| {},
         );
-        let v: Vec<f64> = out
-            .image
-            .data
-            .chunks_exact(3)
-            .map(|c| f64::from(c[1]))
-            .collect();
-        let n = v.len() as f64;
-        let mean = v.iter().sum::<f64>() / n;
-        let var = v.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0);
-        (mean, (var / n).sqrt().max(1e-6))
+        let (mean, se) = common::pixel_mean_and_error(&out.image.data, 1);
+        (mean, se.max(1e-6))
     };
     for (x, expected) in [(-0.75, 0.2), (0.0, 0.5), (0.25, 0.65)] {
         let (mean, se) = reading(x);

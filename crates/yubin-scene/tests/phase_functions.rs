@@ -8,6 +8,8 @@
 //! `tabphase` 0.026802 ± 0.000026 for 0.026790 computed). The meter's film
 //! is 1 × 16 pixels: 16 independent estimates give the standard error.
 
+mod common;
+
 use std::path::Path;
 use yubin_core::render::{render, RenderSettings};
 use yubin_scene::load_scene_str;
@@ -65,17 +67,9 @@ fn z_score(phase: &str, p: f64) -> f64 {
         },
         &|_| {},
     );
-    let estimates: Vec<f64> = out
-        .image
-        .data
-        .chunks_exact(3)
-        .map(|c| f64::from(c[0]))
-        .collect();
-    let n = estimates.len() as f64;
-    let mean = estimates.iter().sum::<f64>() / n;
-    let var = estimates.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let (mean, se) = common::pixel_mean_and_error(&out.image.data, 0);
     let expected = path_integral() * p;
-    (mean - expected) / (var / n).sqrt()
+    (mean - expected) / se
 }
 
 const TAU: f64 = 2.0 * std::f64::consts::PI;

@@ -321,15 +321,15 @@ impl PartFile {
 
 /// Reads a part file whole.
 pub fn read(path: &Path) -> Result<PartFile> {
-    let header = read_header(path)?;
+    let image = exr::prelude::read_first_flat_layer_from_file(path)
+        .map_err(|e| anyhow!("{}: not a readable part file ({e})", path.display()))?;
+    let layer = image.layer_data;
+    let header = PartHeader::from_attributes(path, &layer.attributes.other)?;
     let damaged = |why: &str| anyhow!("{}: damaged part file ({why})", path.display());
     let pixels = u64::from(header.crop[0]) * u64::from(header.crop[1]);
     if pixels == 0 || pixels > 1 << 30 || header.count == 0 || header.channels == 0 {
         return Err(damaged("its yubin.crop, yubin.part or yubin.channels"));
     }
-    let image = exr::prelude::read_first_flat_layer_from_file(path)
-        .map_err(|e| anyhow!("{}: not a readable part file ({e})", path.display()))?;
-    let layer = image.layer_data;
     let width = row_len(header.margin, header.channels);
     let rows = header.tile_numbers().count();
     if (layer.size.width(), layer.size.height()) != (width, rows) {

@@ -764,8 +764,9 @@ fn render_in_passes(
         }
     }
     bar.finish_and_clear();
+    let out = render.output();
     if let Some(part) = job.part {
-        write_part(output, &render, part, fingerprint.clone(), job)?;
+        write_part(output, &render, &out, part, fingerprint.clone(), job)?;
     }
     if render.finished() {
         // A finished render needs no state.
@@ -775,22 +776,19 @@ fn render_in_passes(
     } else if args.checkpoint.is_some() {
         checkpoint::write(&state_path, &fingerprint, &render.state())?;
     }
-    Ok((
-        render.output(),
-        render.total_samples(),
-        render.passes_done(),
-    ))
+    Ok((out, render.total_samples(), render.passes_done()))
 }
 
-/// Writes the part file of the finished `render` of `part`.
+/// Writes the part file of the finished `render` of `part`, whose output
+/// (its image of the part's tiles) is `out`.
 fn write_part(
     output: &Path,
     render: &Progressive,
+    out: &RenderOutput,
     part: Part,
     fingerprint: checkpoint::Fingerprint,
     job: &PassJob,
 ) -> Result<()> {
-    let out = render.output();
     let sums: Vec<&[f32]> = render.part_sums().map(|(_, s)| s).collect();
     let header = PartHeader {
         index: part.index,
@@ -801,13 +799,13 @@ fn write_part(
         crop_offset: job.crop_offset,
         margin: render.margin(),
         channels: out.image.channels,
-        layers: out.layers,
+        layers: out.layers.clone(),
         spp: job.settings.spp,
         done: render.samples_done(),
         samples: render.total_samples(),
         dropped: out.dropped_samples,
         nonfinite_pixels: out.nonfinite.pixels,
-        nonfinite: out.nonfinite.first,
+        nonfinite: out.nonfinite.first.clone(),
         error: render.error_sum(),
         denoise: job.denoise,
     };

@@ -120,3 +120,18 @@ pub fn assert_same_image(a: &str, b: &str, spp: u32, k: u32, label: &str) {
     );
     assert!(x > 0.0 && y > 0.0, "{label}: black images");
 }
+
+/// The mean of `values` (independent estimates) and its standard error.
+pub fn mean_and_error(values: &[f64]) -> (f64, f64) {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let var = values.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+/// [`mean_and_error`] over the pixels of an RGB image's channel `c` (the
+/// pixels of a meter's film are independent estimates of one value).
+pub fn pixel_mean_and_error(rgb: &[f32], c: usize) -> (f64, f64) {
+    let values: Vec<f64> = rgb.chunks_exact(3).map(|p| f64::from(p[c])).collect();
+    mean_and_error(&values)
+}
