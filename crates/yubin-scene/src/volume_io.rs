@@ -61,8 +61,10 @@ pub fn parse_vol(bytes: &[u8]) -> Result<Grid, String> {
         ));
     }
     let channels = int(20);
-    if channels != 1 && channels != 3 {
-        return Err(format!("{channels} channels: a volume has 1 or 3"));
+    if ![1, 3, 6].contains(&channels) {
+        return Err(format!(
+            "{channels} channels: a volume has 1 or 3 (6 for an sggx phase function's S)"
+        ));
     }
     let min = Vec3::new(float(24), float(28), float(32));
     let max = Vec3::new(float(36), float(40), float(44));

@@ -203,16 +203,8 @@ fn merge_renders_its_shapes_as_written() {
 /// at the three points below).
 #[test]
 fn volume_texture_reads_the_volume_at_the_hit() {
-    let dir = std::env::temp_dir().join(format!("yubin-voltex-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let mut vol = b"VOL\x03".to_vec();
-    for v in [1i32, 2, 1, 1, 1] {
-        vol.extend(v.to_le_bytes());
-    }
-    for v in [0.0f32, 0.0, 0.0, 1.0, 1.0, 1.0, 0.2, 0.8] {
-        vol.extend(v.to_le_bytes());
-    }
-    std::fs::write(dir.join("ramp.vol"), vol).unwrap();
+    let dir = common::scratch_dir("voltex");
+    common::write_vol(&dir.join("ramp.vol"), [2, 1, 1], 1, &[0.2, 0.8]);
     let reading = |x: f32| -> (f64, f64) {
         let xml = format!(
             r#"<scene version="3.0.0">

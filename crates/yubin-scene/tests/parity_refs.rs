@@ -90,3 +90,11 @@ fn parity_depth() {
 fn parity_batch() {
     parity("batch");
 }
+
+/// Phase functions under multiple scattering: `sggx` matrices varying over
+/// a grid in a heterogeneous sphere, `tabphase` in a chromatic cube,
+/// `blendphase` of hg and tabphase; sky and sun.
+#[test]
+fn parity_phases() {
+    parity("phases");
+}

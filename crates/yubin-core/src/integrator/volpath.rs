@@ -407,7 +407,7 @@ impl VolPathIntegrator {
             // The distance is drawn first, and surfaces are looked for
             // only that far: a scattering event computes no hit.
             Some(Medium::Homogeneous(h)) => {
-                let t = h.free_distance(path, sampler.next_1d());
+                let t = h.free_distance(ray.o, ray.d, path, sampler.next_1d());
                 let hit = scene.closest(&Ray {
                     t_max: ray.t_max.min(t),
                     ..*ray
@@ -497,7 +497,7 @@ impl Integrator for VolPathIntegrator {
                     }
                     let p = ray.at(flight.t);
                     let wo = -ray.d;
-                    let phase = m.phase();
+                    let phase = &m.phase().at(p);
                     if m.sample_emitters() {
                         l += self.light_from_medium(scene, &path, p, wo, phase, medium, sampler);
                     }

@@ -1,6 +1,7 @@
-//! A voxel grid of one or three channels (densities, albedos), as
-//! Mitsuba's `gridvolume` holds: values at the voxel centres of a box,
-//! read by trilinear interpolation, clamped at the faces.
+//! A voxel grid of one or three channels (densities, albedos), or six (an
+//! `sggx` phase function's matrices), as Mitsuba's `gridvolume` holds:
+//! values at the voxel centres of a box, read by trilinear interpolation,
+//! clamped at the faces.
 
 use crate::math::Bounds3;
 use crate::texture::WrapMode;
@@ -10,7 +11,7 @@ use glam::Vec3;
 /// Why a grid cannot be made.
 #[derive(Clone, Debug, PartialEq)]
 pub enum GridError {
-    /// A resolution of zero, or channels other than 1 or 3.
+    /// A resolution of zero, or channels other than 1, 3 or 6.
     Shape(String),
     /// The data does not hold res.x · res.y · res.z · channels values.
     Size {
@@ -51,7 +52,7 @@ impl std::error::Error for GridError {}
 pub struct Grid {
     /// Voxels along x, y and z.
     pub res: [u32; 3],
-    /// 1 or 3.
+    /// 1, 3 or 6.
     pub channels: u32,
     /// The box the grid fills (its own space).
     pub bounds: Bounds3,
@@ -86,9 +87,9 @@ impl Grid {
         if res.contains(&0) {
             return Err(GridError::Shape(format!("resolution {res:?} has a zero")));
         }
-        if channels != 1 && channels != 3 {
+        if ![1, 3, 6].contains(&channels) {
             return Err(GridError::Shape(format!(
-                "{channels} channels: a volume has 1 or 3"
+                "{channels} channels: a volume has 1 or 3 (6 for an sggx phase function's S)"
             )));
         }
         let expected = res.iter().map(|&r| r as usize).product::<usize>() * channels as usize;
@@ -160,17 +161,23 @@ impl Grid {
     /// The value of voxel (x, y, z), its indices wrapped by `wrap`.
     #[inline]
     fn wrapped_voxel(&self, x: i64, y: i64, z: i64, wrap: WrapMode) -> Rgb {
-        let (x, y, z) = (
-            wrap.index(x, self.res[0]) as usize,
-            wrap.index(y, self.res[1]) as usize,
-            wrap.index(z, self.res[2]) as usize,
-        );
-        let i = (z * self.res[1] as usize + y) * self.res[0] as usize + x;
+        let i = self.wrapped_index(x, y, z, wrap);
         if self.channels == 1 {
             Rgb::splat(self.data[i])
         } else {
             Rgb::from_slice(&self.data[3 * i..3 * i + 3])
         }
+    }
+
+    /// The index of voxel (x, y, z), its indices wrapped by `wrap`.
+    #[inline]
+    fn wrapped_index(&self, x: i64, y: i64, z: i64, wrap: WrapMode) -> usize {
+        let (x, y, z) = (
+            wrap.index(x, self.res[0]) as usize,
+            wrap.index(y, self.res[1]) as usize,
+            wrap.index(z, self.res[2]) as usize,
+        );
+        (z * self.res[1] as usize + y) * self.res[0] as usize + x
     }
 
     /// The trilinearly interpolated value at `p` (the grid's own space);
@@ -187,30 +194,69 @@ impl Grid {
     /// outside the grid wrap by `wrap` (as a texture's texels do);
     /// trilinear between voxel centres, or the nearest voxel.
     pub fn lookup(&self, p: Vec3, wrap: WrapMode, nearest: bool) -> Rgb {
+        self.interpolate(p, nearest, |x, y, z| self.wrapped_voxel(x, y, z, wrap))
+    }
+
+    /// [`Grid::lookup`] of a six-channel grid.
+    pub fn lookup6(&self, p: Vec3, wrap: WrapMode, nearest: bool) -> [f32; 6] {
+        debug_assert_eq!(self.channels, 6);
+        self.interpolate(p, nearest, |x, y, z| {
+            let i = 6 * self.wrapped_index(x, y, z, wrap);
+            Six(self.data[i..i + 6].try_into().unwrap())
+        })
+        .0
+    }
+
+    /// Trilinear interpolation (or the nearest voxel) of the values
+    /// `voxel` gives by voxel index, at `p` in the grid's own space.
+    #[inline]
+    fn interpolate<T: Lerp>(
+        &self,
+        p: Vec3,
+        nearest: bool,
+        voxel: impl Fn(i64, i64, i64) -> T,
+    ) -> T {
         let b = &self.bounds;
         let res = Vec3::new(self.res[0] as f32, self.res[1] as f32, self.res[2] as f32);
         // Voxel centres sit at (i + 1/2) / res of the box.
         let q = (p - b.min) / (b.max - b.min) * res;
         if nearest {
             let v = crate::math::floor3(q);
-            return self.wrapped_voxel(v.x as i64, v.y as i64, v.z as i64, wrap);
+            return voxel(v.x as i64, v.y as i64, v.z as i64);
         }
         let q = q - Vec3::splat(0.5);
         let base = crate::math::floor3(q);
         let f = q - base;
         let (x, y, z) = (base.x as i64, base.y as i64, base.z as i64);
-        let lerp = |a: Rgb, b: Rgb, t: f32| a + (b - a) * t;
         let plane = |dz: i64| {
-            let row = |dy: i64| {
-                lerp(
-                    self.wrapped_voxel(x, y + dy, z + dz, wrap),
-                    self.wrapped_voxel(x + 1, y + dy, z + dz, wrap),
-                    f.x,
-                )
-            };
-            lerp(row(0), row(1), f.y)
+            let row =
+                |dy: i64| T::lerp(voxel(x, y + dy, z + dz), voxel(x + 1, y + dy, z + dz), f.x);
+            T::lerp(row(0), row(1), f.y)
         };
-        lerp(plane(0), plane(1), f.z)
+        T::lerp(plane(0), plane(1), f.z)
+    }
+}
+
+/// Values interpolated between voxels.
+trait Lerp: Copy {
+    fn lerp(a: Self, b: Self, t: f32) -> Self;
+}
+
+impl Lerp for Rgb {
+    #[inline]
+    fn lerp(a: Self, b: Self, t: f32) -> Self {
+        a + (b - a) * t
+    }
+}
+
+/// A six-channel voxel.
+#[derive(Clone, Copy)]
+struct Six([f32; 6]);
+
+impl Lerp for Six {
+    #[inline]
+    fn lerp(a: Self, b: Self, t: f32) -> Self {
+        Six(std::array::from_fn(|i| a.0[i] + (b.0[i] - a.0[i]) * t))
     }
 }
 

@@ -30,11 +30,17 @@
 //! ```
 //!
 //! The medium is empty outside the bounding box of its `sigma_t` volume (as
-//! in Mitsuba). A `gridvolume` with `wrap_mode` other than `clamp` takes one
+//! in Mitsuba). A constant `sigma_t` (a number, a colour or a
+//! `constvolume`) fills the unit cube [0, 1]³ through the `constvolume`'s
+//! `to_world`, as Mitsuba 3.9.1's does (measured: σ_t = 1 in a cube
+//! [−1, 1]³ transmits e^−1 along z through x = y = 0.5 and 1 through x =
+//! y = −0.5): give the `constvolume` a `to_world` that covers the medium's
+//! shapes. A `gridvolume` with `wrap_mode` other than `clamp` takes one
 //! majorant for its whole box (its wrapped border voxels would cross cells).
 
 use super::{common_params, Heterogeneous, MajorantGrid, Majorants, Medium};
-use crate::params::{ColorKind, ParamError, Params};
+use crate::math::{Bounds3, Transform};
+use crate::params::{ColorKind, Family, ParamError, Params};
 use crate::texture::WrapMode;
 use crate::volume::{volume_param, Volume};
 use crate::Rgb;
@@ -43,6 +49,10 @@ use std::sync::Arc;
 /// Builds the medium from its scene parameters.
 pub(super) fn from_params(p: &mut dyn Params) -> Result<Medium, ParamError> {
     let common = common_params(p)?;
+    let const_to_world = match p.named_child(Family::Volume, "sigma_t")? {
+        Some(mut c) if c.plugin_type() == "constvolume" => c.transform_or_identity("to_world")?,
+        _ => Transform::IDENTITY,
+    };
     let sigma_t = volume_param(p, "sigma_t", ColorKind::Unbounded, Rgb::ONE)?;
     if let Volume::Const(v) = sigma_t {
         if !(v.is_finite() && v.min_element() >= 0.0) {
@@ -57,7 +67,21 @@ pub(super) fn from_params(p: &mut dyn Params) -> Result<Medium, ParamError> {
         )
     })?;
     p.float_or("majorant_factor", 1.01)?;
-    let majorants = majorants(&sigma_t, common.scale, factor);
+    // An sggx phase function multiplies the extinction by up to its
+    // largest projected area (see `sggx`: Mitsuba leaves the majorant).
+    let along = common.phase.max_projected_area().max(1.0);
+    let extent = match sigma_t {
+        // Mitsuba's constvolume has the box of a volume: the unit cube.
+        Volume::Const(_) => Some((
+            const_to_world,
+            Bounds3 {
+                min: glam::Vec3::ZERO,
+                max: glam::Vec3::ONE,
+            },
+        )),
+        _ => sigma_t.extent(),
+    };
+    let majorants = majorants(&sigma_t, extent, common.scale * along, factor);
     Ok(Medium::Heterogeneous(Heterogeneous {
         sigma_t,
         majorants,
@@ -65,9 +89,14 @@ pub(super) fn from_params(p: &mut dyn Params) -> Result<Medium, ParamError> {
     }))
 }
 
-/// The majorants of extinction `sigma_t` × `scale`.
-fn majorants(sigma_t: &Volume, scale: f32, factor: u32) -> Majorants {
-    let extent = sigma_t.extent();
+/// The majorants of extinction `sigma_t` × `scale`, empty outside
+/// `extent`.
+fn majorants(
+    sigma_t: &Volume,
+    extent: Option<(Transform, Bounds3)>,
+    scale: f32,
+    factor: u32,
+) -> Majorants {
     match sigma_t {
         Volume::Grid(g) if factor > 0 && g.wrap == WrapMode::Clamp => {
             let res = g.grid.res.map(|r| r.div_ceil(factor));

@@ -29,9 +29,14 @@
 //! An emissive medium (`radiance` L_e) adds σ_a L_e per unit length along
 //! every ray through it, σ_a = σ_t (1 − albedo); `volpath` finds it by
 //! tracking, not by light sampling.
+//!
+//! With an `sggx` phase function the extinction along a ray is σ_t σ(ω)
+//! (see `sggx`); where its S varies over space the medium is tracked as a
+//! heterogeneous one of constant σ_t, so that S is read at every point.
 
-use super::{common_params, Homogeneous, Medium};
+use super::{common_params, Heterogeneous, Homogeneous, Majorants, Medium};
 use crate::params::{ColorKind, ParamError, Params};
+use crate::phase::PhaseFunction;
 use crate::volume::{volume_param, Volume};
 use crate::Rgb;
 
@@ -47,6 +52,16 @@ pub(super) fn from_params(p: &mut dyn Params) -> Result<Medium, ParamError> {
     };
     if !(sigma_t.is_finite() && sigma_t.min_element() >= 0.0) {
         return Err(p.param_error("sigma_t", &format!("must be 0 or more, not {sigma_t}")));
+    }
+    if let PhaseFunction::Sggx(field) = common.phase {
+        return Ok(Medium::Heterogeneous(Heterogeneous {
+            majorants: Majorants::Uniform {
+                value: sigma_t.max_element() * common.scale * field.max_projected_area().max(1.0),
+                extent: None,
+            },
+            sigma_t: Volume::Const(sigma_t),
+            common,
+        }));
     }
     Ok(Medium::Homogeneous(Homogeneous {
         sigma_t: sigma_t * common.scale,

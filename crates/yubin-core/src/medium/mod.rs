@@ -259,7 +259,7 @@ impl Medium {
         next: &mut impl FnMut() -> f32,
     ) -> Rgb {
         match self {
-            Medium::Homogeneous(m) => extinction(m.sigma_t, t_max),
+            Medium::Homogeneous(m) => extinction(m.sigma_t_along(o, d), t_max),
             Medium::Heterogeneous(m) => m.transmittance(o, d, t_max, next),
         }
     }
@@ -278,19 +278,26 @@ impl MediumCommon {
 }
 
 impl Homogeneous {
-    fn coefficients(&self) -> HomogeneousCoefficients {
+    /// Extinction along `d` for a flight from `o`: σ_t times the phase
+    /// function's projected area (1 but for `sggx`).
+    #[inline]
+    fn sigma_t_along(&self, o: Vec3, d: Vec3) -> Rgb {
+        self.sigma_t * self.common.phase.projected_area(o, d)
+    }
+
+    fn coefficients(&self, o: Vec3, d: Vec3) -> HomogeneousCoefficients {
         HomogeneousCoefficients {
-            sigma_t: self.sigma_t,
+            sigma_t: self.sigma_t_along(o, d),
             albedo: Rgb::ONE,
         }
     }
 
-    /// The distance a flight by the path's hero channel would go, from a
-    /// uniform `u`: an integrator may look for surfaces only that far
-    /// (then [`Homogeneous::end_flight`]).
+    /// The distance a flight from `o` along `d` by the path's hero channel
+    /// would go, from a uniform `u`: an integrator may look for surfaces
+    /// only that far (then [`Homogeneous::end_flight`]).
     #[inline]
-    pub fn free_distance(&self, path: &PathWeight, u: f32) -> f32 {
-        self.coefficients().free_distance(path.hero, u)
+    pub fn free_distance(&self, o: Vec3, d: Vec3, path: &PathWeight, u: f32) -> f32 {
+        self.coefficients(o, d).free_distance(path.hero, u)
     }
 
     fn sample_flight(
@@ -301,7 +308,7 @@ impl Homogeneous {
         path: &mut PathWeight,
         next: &mut impl FnMut() -> f32,
     ) -> Flight {
-        let t = self.free_distance(path, next());
+        let t = self.free_distance(o, d, path, next());
         self.end_flight(o, d, t, t_max, path)
     }
 
@@ -316,12 +323,13 @@ impl Homogeneous {
         t_max: f32,
         path: &mut PathWeight,
     ) -> Flight {
-        let s = self.coefficients().flight_outcome(t, t_max, path.hero);
+        let coefficients = self.coefficients(o, d);
+        let s = coefficients.flight_outcome(t, t_max, path.hero);
         path.ratio *= s.ratio;
         if !s.scattered {
             path.beta *= s.weight;
             // The hero's chance of passing, e^(−σ_h t_max) (1 where σ_h = 0).
-            let sigma_hero = self.sigma_t[path.hero];
+            let sigma_hero = coefficients.sigma_t[path.hero];
             if sigma_hero > 0.0 {
                 path.ratio_light /= (-sigma_hero * t_max).exp();
             }
@@ -348,10 +356,11 @@ impl Homogeneous {
 }
 
 impl Heterogeneous {
-    /// Extinction at `p`.
+    /// Extinction at `p` along `d`: the phase function's projected area
+    /// (1 but for `sggx`) included.
     #[inline]
-    fn sigma_t_at(&self, p: Vec3) -> Rgb {
-        self.sigma_t.eval(p) * self.common.scale
+    fn sigma_t_at(&self, p: Vec3, d: Vec3) -> Rgb {
+        self.sigma_t.eval(p) * (self.common.scale * self.common.phase.projected_area(p, d))
     }
 
     /// Delta tracking: tentative collisions at the majorant's rate, each
@@ -379,7 +388,7 @@ impl Heterogeneous {
                     return true;
                 }
                 let p = o + d * t;
-                let sigma_t = self.sigma_t_at(p);
+                let sigma_t = self.sigma_t_at(p, d);
                 let albedo = self.common.radiance.is_some().then(|| {
                     let albedo = self.common.albedo.eval(p);
                     emitted += path.contribution(sigma_t * self.common.emission(p, albedo) / mu);
@@ -411,7 +420,7 @@ impl Heterogeneous {
         self.majorants.walk(o, d, t_max, |t0, t1, mu| {
             if mu > 0.0 {
                 tr *= ratio_tracking(
-                    |t| self.sigma_t_at(o + d * (t0 + t)),
+                    |t| self.sigma_t_at(o + d * (t0 + t), d),
                     mu,
                     t1 - t0,
                     &mut *next,

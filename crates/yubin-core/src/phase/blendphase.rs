@@ -53,6 +53,11 @@ pub(super) fn from_params(p: &mut dyn Params) -> Result<PhaseFunction, ParamErro
             ),
         )
     })?;
+    if parts_are_sggx(&[first, second]) {
+        return Err(
+            p.error("cannot blend an sggx phase function (its medium's extinction depends on it)")
+        );
+    }
     Ok(PhaseFunction::Blend(
         Blend {
             weight: weight.clamp(0.0, 1.0),
@@ -60,6 +65,12 @@ pub(super) fn from_params(p: &mut dyn Params) -> Result<PhaseFunction, ParamErro
         }
         .interned(),
     ))
+}
+
+fn parts_are_sggx(parts: &[PhaseFunction]) -> bool {
+    parts
+        .iter()
+        .any(|f| matches!(f, PhaseFunction::Sggx(_) | PhaseFunction::SggxAt(_)))
 }
 
 /// Two phase functions and the second one's share.

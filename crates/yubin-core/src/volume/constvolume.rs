@@ -4,7 +4,7 @@
 //! | parameter | type            | default | meaning        |
 //! |-----------|-----------------|---------|----------------|
 //! | `value`   | float/rgb/spectrum | 1    | the value      |
-//! | `to_world` | transform      | identity | accepted, as Mitsuba does; a constant is the same anywhere |
+//! | `to_world` | transform      | identity | places the volume's box, the unit cube [0, 1]³: a `heterogeneous` medium is empty outside it (as in Mitsuba) |
 //!
 //! ```xml
 //! <volume type="constvolume" name="albedo"><rgb name="value" value="0.9, 0.5, 0.2"/></volume>

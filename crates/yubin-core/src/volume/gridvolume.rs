@@ -6,7 +6,7 @@
 //!
 //! | parameter       | type      | default   | meaning                                                   |
 //! |-----------------|-----------|-----------|-----------------------------------------------------------|
-//! | `filename`      | string    | —         | the `.vol` file (format version 3, float32, 1 or 3 channels) |
+//! | `filename`      | string    | —         | the `.vol` file (format version 3, float32, 1 or 3 channels; 6 for an `sggx` phase function's `S`) |
 //! | `to_world`      | transform | identity  | places the grid's box in the world                        |
 //! | `use_grid_bbox` | boolean   | false     | the box is the one in the file (else the unit cube [0, 1]³) |
 //! | `filter_type`   | string    | trilinear | `trilinear` or `nearest`                                  |
@@ -52,17 +52,37 @@ impl GridVolume {
         self.grid
             .lookup(to_local(&self.to_world, p), self.wrap, self.nearest)
     }
+
+    /// The six channels at world point `p` (a six-channel grid).
+    #[inline]
+    pub fn eval6(&self, p: Vec3) -> [f32; 6] {
+        self.grid
+            .lookup6(to_local(&self.to_world, p), self.wrap, self.nearest)
+    }
 }
 
 /// Builds the volume from its scene parameters.
 pub(super) fn from_params(p: &mut dyn Params) -> Result<Volume, ParamError> {
-    let Some(grid) = p.grid_file("filename")? else {
-        return Err(p.error("needs a \"filename\""));
-    };
-    if let Err(e) = grid.check_non_negative() {
+    let g = placed_grid(p)?;
+    if g.grid.channels == 6 {
+        return Err(p.param_error(
+            "filename",
+            "has 6 channels: only an sggx phase function's S takes a 6-channel grid",
+        ));
+    }
+    if let Err(e) = g.grid.check_non_negative() {
         let file = p.string("filename")?.unwrap_or_default();
         return Err(p.param_error("filename", &format!("{file}: {e}")));
     }
+    Ok(Volume::Grid(g))
+}
+
+/// The grid of a `gridvolume`'s parameters, placed in the world, of any
+/// channel count and sign.
+pub fn placed_grid(p: &mut dyn Params) -> Result<GridVolume, ParamError> {
+    let Some(grid) = p.grid_file("filename")? else {
+        return Err(p.error("needs a \"filename\""));
+    };
     let use_grid_bbox = p.boolean_or("use_grid_bbox", false)?;
     let nearest = p.choice("filter_type", &["trilinear", "nearest"])? == 1;
     let wrap = match p.choice("wrap_mode", &["clamp", "repeat", "mirror"])? {
@@ -80,12 +100,12 @@ pub(super) fn from_params(p: &mut dyn Params) -> Result<Volume, ParamError> {
         g.bounds = unit_cube();
         Arc::new(g)
     };
-    Ok(Volume::Grid(GridVolume {
+    Ok(GridVolume {
         grid,
         to_world,
         wrap,
         nearest,
-    }))
+    })
 }
 
 fn unit_cube() -> Bounds3 {

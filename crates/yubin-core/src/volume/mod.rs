@@ -9,7 +9,7 @@ mod constvolume;
 mod gridvolume;
 mod pyroclastic;
 
-pub use gridvolume::GridVolume;
+pub use gridvolume::{placed_grid, GridVolume};
 pub use pyroclastic::PyroclasticVolume;
 
 use crate::math::{Bounds3, Transform};

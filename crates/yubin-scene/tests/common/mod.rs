@@ -135,3 +135,24 @@ pub fn pixel_mean_and_error(rgb: &[f32], c: usize) -> (f64, f64) {
     let values: Vec<f64> = rgb.chunks_exact(3).map(|p| f64::from(p[c])).collect();
     mean_and_error(&values)
 }
+
+/// Writes a Mitsuba `.vol` file (version 3, float32) of `dims` voxels and
+/// `channels` channels to `path` (box [0, 1]³).
+pub fn write_vol(path: &Path, dims: [i32; 3], channels: i32, data: &[f32]) {
+    let mut vol = b"VOL\x03".to_vec();
+    for v in [1, dims[0], dims[1], dims[2], channels] {
+        vol.extend(v.to_le_bytes());
+    }
+    for v in [0.0f32, 0.0, 0.0, 1.0, 1.0, 1.0].iter().chain(data) {
+        vol.extend(v.to_le_bytes());
+    }
+    std::fs::write(path, vol).unwrap();
+}
+
+/// A fresh directory under the system's temporary one, for files a test
+/// writes.
+pub fn scratch_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("yubin-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
