@@ -647,7 +647,12 @@ impl Builder<'_> {
         if let Some(b) = bsdf {
             self.check_attributes(obj, &shape, b)?;
         }
-        if emission.is_some() && matches!(shape, Shape::Sdf(_) | Shape::SdfGrid(_)) {
+        if emission.is_some()
+            && matches!(
+                shape,
+                Shape::Sdf(_) | Shape::SdfGrid(_) | Shape::Ellipsoids(_) | Shape::EllipsoidsMesh(_)
+            )
+        {
             return Err(obj.error(format!(
                 "a \"{}\" shape cannot carry an area emitter: its surface cannot be sampled",
                 obj.plugin_type

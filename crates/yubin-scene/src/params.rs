@@ -250,6 +250,20 @@ impl Params for ObjParams<'_, '_, '_> {
         self.b.mesh_file(self.obj).map_err(to_param)
     }
 
+    fn ply_table(
+        &mut self,
+        name: &str,
+    ) -> Result<Option<yubin_core::shape::PropertyTable>, ParamError> {
+        let Some(file) = self.obj.string(name).map_err(to_param)? else {
+            return Ok(None);
+        };
+        let path = (self.b.desc.resolve_file(file, self.obj.loc_of(name))).map_err(to_param)?;
+        let loc = self.obj.loc_of(name);
+        crate::mesh::ply::load_ply_table(&path)
+            .map(Some)
+            .map_err(|e| ParamError(format!("{loc}: {e}")))
+    }
+
     fn mark_ignored(&mut self, name: &str) {
         self.obj.mark_ignored(name);
     }

@@ -253,3 +253,108 @@ fn volume_texture_reads_the_volume_at_the_hit() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A binary PLY of one Gaussian per row of `rows`, float properties
+/// `names`, its last `truncate` bytes cut, written to `dir/name`.
+fn gaussians_ply(
+    dir: &Path,
+    name: &str,
+    names: &[&str],
+    rows: &[Vec<f32>],
+    truncate: usize,
+) -> String {
+    let mut bytes = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\n{}end_header\n",
+        rows.len(),
+        names
+            .iter()
+            .map(|n| format!("property float {n}\n"))
+            .collect::<String>()
+    )
+    .into_bytes();
+    for r in rows {
+        for v in r {
+            bytes.extend(v.to_le_bytes());
+        }
+    }
+    bytes.truncate(bytes.len() - truncate);
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path.display().to_string()
+}
+
+const GAUSSIAN: [&str; 13] = [
+    "x", "y", "z", "nx", "ny", "nz", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2",
+    "rot_3",
+];
+
+/// Bad Gaussian files and parameters are refused with the file, the line
+/// and what is wrong; a Gaussian scene loads and sees its ellipsoid.
+#[test]
+fn ellipsoids_refuse_bad_files_at_their_line() {
+    let dir = common::scratch_dir("ellipsoids");
+    let one = vec![
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, -1.0, -1.0, 1.0, 0.0, 0.0, 0.0,
+    ];
+    let good = gaussians_ply(&dir, "good.ply", &GAUSSIAN, std::slice::from_ref(&one), 0);
+    let shape = |plugin: &str, file: &str, extra: &str| {
+        format!(r#"<shape type="{plugin}"><string name="filename" value="{file}"/>{extra}</shape>"#)
+    };
+    let error = |body: &str| match load_scene_str(&scene(body), Path::new("bad.xml"), &[]) {
+        Ok(_) => panic!("{body} loaded"),
+        Err(e) => e.to_string(),
+    };
+    for plugin in ["ellipsoids", "ellipsoidsmesh"] {
+        assert!(
+            load_scene_str(&scene(&shape(plugin, &good, "")), Path::new("ok.xml"), &[]).is_ok()
+        );
+        let mut swapped = GAUSSIAN;
+        swapped.swap(6, 9);
+        let order = gaussians_ply(&dir, "order.ply", &swapped, std::slice::from_ref(&one), 0);
+        let e = error(&shape(plugin, &order, ""));
+        assert!(
+            e.contains("bad.xml:")
+                && e.contains("order.ply")
+                && e.contains("must begin with x y z nx ny nz"),
+            "{e}"
+        );
+        let cut = gaussians_ply(&dir, "cut.ply", &GAUSSIAN, &[one.clone(), one.clone()], 10);
+        let e = error(&shape(plugin, &cut, ""));
+        assert!(
+            e.contains("bad.xml:") && e.contains("cut.ply") && e.contains("truncated"),
+            "{e}"
+        );
+        let e = error(&shape(plugin, "missing.ply", ""));
+        assert!(e.contains("missing.ply"), "{e}");
+        let e = error(&format!(
+            r#"<shape type="{plugin}"><string name="filename" value="{good}"/><emitter type="area"/></shape>"#
+        ));
+        assert!(e.contains("cannot carry an area emitter"), "{e}");
+    }
+    let e = error(&shape(
+        "ellipsoidsmesh",
+        &good,
+        r#"<string name="shell" value="cube"/>"#,
+    ));
+    assert!(
+        e.contains("bad.xml:") && e.contains("shell 'cube' is not one of"),
+        "{e}"
+    );
+    // Not a float: Mitsuba would read its bytes as floats.
+    let mut text = std::fs::read(&good).unwrap();
+    let at = text
+        .windows(16)
+        .position(|w| w == b"property float x")
+        .unwrap();
+    text.splice(at..at + 16, b"property double x".iter().copied());
+    std::fs::write(dir.join("double.ply"), text).unwrap();
+    let e = error(&shape(
+        "ellipsoids",
+        &dir.join("double.ply").display().to_string(),
+        "",
+    ));
+    assert!(
+        e.contains("double.ply") && e.contains("property 'x'"),
+        "{e}"
+    );
+}

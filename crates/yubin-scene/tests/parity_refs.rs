@@ -98,3 +98,11 @@ fn parity_batch() {
 fn parity_phases() {
     parity("phases");
 }
+
+/// Gaussian splats as surfaces: `ellipsoids` and `ellipsoidsmesh` shells
+/// (rotated, non-uniformly scaled `to_world`, adaptive extents), and a
+/// `dielectric` Gaussian whose refracted rays leave without a hit.
+#[test]
+fn parity_ellipsoids() {
+    parity("ellipsoids");
+}

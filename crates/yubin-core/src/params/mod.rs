@@ -245,6 +245,11 @@ pub trait Params {
     fn mesh_file(&mut self) -> Result<crate::shape::MeshData, ParamError> {
         Err(self.error("this front end reads no mesh files"))
     }
+    /// The first element of the PLY file named by string parameter `name`,
+    /// as a table of float properties (`ellipsoids`' Gaussians).
+    fn ply_table(&mut self, name: &str) -> Result<Option<crate::shape::PropertyTable>, ParamError> {
+        Err(self.param_error(name, "this front end reads no PLY files"))
+    }
     /// The index of mesh attribute `attribute` (`vertex_color`, …) in the
     /// scene's attribute-name table, added if new. A front end without a
     /// scene has none.

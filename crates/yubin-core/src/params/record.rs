@@ -685,6 +685,10 @@ impl Params for Recorder<'_> {
         // editable).
         self.inner.get().mesh_file()
     }
+    fn ply_table(&mut self, name: &str) -> Result<Option<crate::shape::PropertyTable>, ParamError> {
+        // Not recorded, as a mesh file.
+        self.inner.get().ply_table(name)
+    }
     fn attribute_index(&mut self, attribute: &str) -> Result<u32, ParamError> {
         let i = self.inner.get().attribute_index(attribute)?;
         (self.record.other).push(Other::Attribute(attribute.to_string(), i));
@@ -851,6 +855,12 @@ impl Params for Replay<'_> {
     }
     fn mesh_file(&mut self) -> Result<crate::shape::MeshData, ParamError> {
         Err(self.error("a mesh file is not read again by an update: load the scene again"))
+    }
+    fn ply_table(
+        &mut self,
+        _name: &str,
+    ) -> Result<Option<crate::shape::PropertyTable>, ParamError> {
+        Err(self.error("a PLY file is not read again by an update: load the scene again"))
     }
     fn attribute_index(&mut self, attribute: &str) -> Result<u32, ParamError> {
         (self.record.attribute(attribute)).ok_or_else(|| self.not_recorded(attribute))

@@ -48,7 +48,12 @@ pub(crate) fn shape_packet_avx2(
         Shape::Rectangle(r) => Some(rectangle(r, rays, reg(t_max))),
         Shape::Disk(d) => Some(disk(d, rays, reg(t_max))),
         Shape::Cube(c) => Some(cube(c, rays, reg(t_max))),
-        Shape::Mesh(_) | Shape::Cylinder(_) | Shape::Sdf(_) | Shape::SdfGrid(_) => None,
+        Shape::Mesh(_)
+        | Shape::Cylinder(_)
+        | Shape::Sdf(_)
+        | Shape::SdfGrid(_)
+        | Shape::Ellipsoids(_)
+        | Shape::EllipsoidsMesh(_) => None,
     }
 }
 
@@ -63,7 +68,12 @@ pub(crate) fn shape_blocks_avx2(shape: &Shape, rays: &RayPacket, t_max: f32x8) -
         Shape::Rectangle(r) => rectangle(r, rays, reg(t_max)).0,
         Shape::Disk(d) => disk(d, rays, reg(t_max)).0,
         Shape::Cube(c) => cube(c, rays, reg(t_max)).0,
-        Shape::Mesh(_) | Shape::Cylinder(_) | Shape::Sdf(_) | Shape::SdfGrid(_) => return None,
+        Shape::Mesh(_)
+        | Shape::Cylinder(_)
+        | Shape::Sdf(_)
+        | Shape::SdfGrid(_)
+        | Shape::Ellipsoids(_)
+        | Shape::EllipsoidsMesh(_) => return None,
     })
 }
 

@@ -16,6 +16,8 @@ mod avx2;
 pub mod cube;
 mod cylinder;
 mod disk;
+pub mod ellipsoids;
+pub mod ellipsoidsmesh;
 pub mod mandelbox;
 mod mesh;
 mod rectangle;
@@ -30,6 +32,8 @@ pub(crate) use avx2::{shape_blocks_avx2, shape_packet_avx2};
 pub use cube::Cube;
 pub use cylinder::Cylinder;
 pub use disk::Disk;
+pub use ellipsoids::{Ellipsoids, PropertyTable};
+pub use ellipsoidsmesh::EllipsoidsMesh;
 #[cfg(test)]
 pub(crate) use mesh::tests as mesh_tests;
 pub use mesh::{MeshData, MeshShape, TriangleMesh};
@@ -107,6 +111,16 @@ pub const PLUGINS: &[(&str, ShapeFromParams)] = &[
             SdfShape::mandelbox_from_params(p)?,
         )))
     }),
+    ("ellipsoids", |p| {
+        Ok(BuiltShape::Analytic(Shape::Ellipsoids(
+            Ellipsoids::from_params(p)?,
+        )))
+    }),
+    ("ellipsoidsmesh", |p| {
+        Ok(BuiltShape::Analytic(Shape::EllipsoidsMesh(
+            EllipsoidsMesh::from_params(p)?,
+        )))
+    }),
 ];
 
 /// The `to_world` and `flip_normals` of a shape placed by a transform
@@ -120,7 +134,7 @@ pub(crate) fn placement(p: &mut dyn Params) -> Result<(Transform, bool), ParamEr
 pub fn from_params(p: &mut dyn Params) -> Result<BuiltShape, ParamError> {
     let known =
         "obj, ply, serialized, cube, sphere, rectangle, disk, cylinder, sdf, sdfgrid, mandelbox, \
-                 shapegroup, instance";
+                 ellipsoids, ellipsoidsmesh, shapegroup, instance";
     plugin_of(p, "shape", PLUGINS, Some(known))?(p)
 }
 
@@ -304,6 +318,10 @@ pub enum Shape {
     Sdf(SdfShape),
     /// `sdfgrid`: a sampled distance grid, one primitive per voxel.
     SdfGrid(SdfGrid),
+    /// `ellipsoids`: one primitive per Gaussian.
+    Ellipsoids(Ellipsoids),
+    /// `ellipsoidsmesh`: one primitive (a convex shell) per Gaussian.
+    EllipsoidsMesh(EllipsoidsMesh),
 }
 
 impl Shape {
@@ -326,7 +344,12 @@ impl Shape {
             Shape::Rectangle(r) => Some(r.intersect_packet(rays, t_max)),
             Shape::Disk(d) => Some(d.intersect_packet(rays, t_max)),
             Shape::Cube(c) => Some(c.intersect_packet(rays, t_max)),
-            Shape::Mesh(_) | Shape::Cylinder(_) | Shape::Sdf(_) | Shape::SdfGrid(_) => None,
+            Shape::Mesh(_)
+            | Shape::Cylinder(_)
+            | Shape::Sdf(_)
+            | Shape::SdfGrid(_)
+            | Shape::Ellipsoids(_)
+            | Shape::EllipsoidsMesh(_) => None,
         }
     }
 
@@ -357,7 +380,9 @@ impl Shape {
             }),
             Shape::Cube(c) => Shape::Cube(Cube::new(t.after(&c.to_world), c.flip_normals)),
             // Never an emitter, so never placed for light sampling.
-            Shape::Sdf(_) | Shape::SdfGrid(_) => return None,
+            Shape::Sdf(_) | Shape::SdfGrid(_) | Shape::Ellipsoids(_) | Shape::EllipsoidsMesh(_) => {
+                return None
+            }
         })
     }
 }
@@ -373,6 +398,8 @@ macro_rules! dispatch {
             Shape::Cube($s) => $e,
             Shape::Sdf($s) => $e,
             Shape::SdfGrid($s) => $e,
+            Shape::Ellipsoids($s) => $e,
+            Shape::EllipsoidsMesh($s) => $e,
         }
     };
 }

@@ -64,6 +64,7 @@ use ply_rs_bw::ply::{
 
 use super::MeshData;
 use crate::error::{Location, SceneError};
+use yubin_core::shape::PropertyTable;
 use yubin_core::texture::image::srgb_to_linear;
 use yubin_core::texture::NamedAttribute;
 
@@ -80,6 +81,57 @@ const FACE_INDEX_NAMES: [&str; 2] = ["vertex_indices", "vertex_index"];
 
 /// Loads the triangle mesh of the PLY file at `path`. See the module docs.
 pub fn load_ply(path: &Path) -> Result<MeshData, SceneError> {
+    with_rows(path, |header, rows| {
+        let layout = MeshLayout::from_header(header, &rows.file)?;
+        read_mesh(rows, header, &layout)
+    })
+}
+
+/// The first element of the PLY file at `path` as a table of `float`
+/// properties, as Mitsuba 3's `ellipsoids` read their Gaussians: any other
+/// property type is an error naming it (Mitsuba would read its bytes as
+/// floats).
+pub fn load_ply_table(path: &Path) -> Result<PropertyTable, SceneError> {
+    with_rows(path, |header, rows| {
+        let element = header
+            .elements
+            .values()
+            .next()
+            .ok_or_else(|| rows.file_error("the PLY header declares no element".into()))?;
+        let mut names = Vec::new();
+        for (name, p) in element.properties.iter() {
+            let kind = match &p.data_type {
+                PropertyType::Scalar(ScalarType::Float) => None,
+                PropertyType::Scalar(t) => Some(format!("{t:?}").to_lowercase()),
+                PropertyType::List(..) => Some("a list".to_string()),
+            };
+            if let Some(kind) = kind {
+                return Err(rows.file_error(format!(
+                    "property '{name}' of '{}' is {kind}: every property must be a float (float32)",
+                    element.name
+                )));
+            }
+            names.push(name.clone());
+        }
+        let mut values = Vec::with_capacity(rows.plausible_capacity(element.count) * names.len());
+        for index in 0..element.count {
+            let row = rows.next_row(element, index)?;
+            values.extend(row.0.iter().map(scalar_f32));
+        }
+        Ok(PropertyTable {
+            names,
+            rows: element.count,
+            values,
+        })
+    })
+}
+
+/// Reads the header of the PLY file at `path` and calls `read` with it
+/// and a reader of its rows.
+fn with_rows<T>(
+    path: &Path,
+    read: impl FnOnce(&Header, &mut RowReader) -> Result<T, SceneError>,
+) -> Result<T, SceneError> {
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
         error: source,
@@ -91,7 +143,6 @@ pub fn load_ply(path: &Path) -> Result<MeshData, SceneError> {
     let header = parser
         .read_header(&mut body)
         .map_err(|e| header_error(&file, &e))?;
-    let layout = MeshLayout::from_header(&header, &file)?;
     let header_lines = count_newlines(&bytes[..bytes.len() - body.len()]);
     let mut rows = RowReader {
         parser,
@@ -100,7 +151,7 @@ pub fn load_ply(path: &Path) -> Result<MeshData, SceneError> {
         file,
         line: header_lines + 1,
     };
-    read_mesh(&mut rows, &header, &layout)
+    read(&header, &mut rows)
 }
 
 /// One element row: its property values in header order.
