@@ -250,6 +250,17 @@ impl Params for ObjParams<'_, '_, '_> {
         self.b.mesh_file(self.obj).map_err(to_param)
     }
 
+    fn file_bytes(&mut self, name: &str) -> Result<Option<Vec<u8>>, ParamError> {
+        let Some(file) = self.obj.string(name).map_err(to_param)? else {
+            return Ok(None);
+        };
+        let loc = self.obj.loc_of(name);
+        let path = (self.b.desc.resolve_file(file, loc)).map_err(to_param)?;
+        std::fs::read(&path)
+            .map(Some)
+            .map_err(|e| ParamError(format!("{loc}: cannot read {}: {e}", path.display())))
+    }
+
     fn ply_table(
         &mut self,
         name: &str,

@@ -358,3 +358,36 @@ fn ellipsoids_refuse_bad_files_at_their_line() {
         "{e}"
     );
 }
+
+/// A `measured` BSDF's bad file is refused at its line, naming the file
+/// and what is wrong.
+#[test]
+fn measured_refuses_bad_files_at_their_line() {
+    let dir = common::scratch_dir("measured");
+    let good =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/parity/measured/ggx_iso.bsdf");
+    let bytes = std::fs::read(&good).unwrap();
+    std::fs::write(dir.join("cut.bsdf"), &bytes[..bytes.len() / 2]).unwrap();
+    let body = |file: &str| {
+        format!(
+            r#"<shape type="sphere"><bsdf type="measured"><string name="filename" value="{file}"/></bsdf></shape>"#
+        )
+    };
+    let error = |file: &str| match load_scene_str(&scene(&body(file)), Path::new("bad.xml"), &[]) {
+        Ok(_) => panic!("{file} loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(load_scene_str(
+        &scene(&body(&good.display().to_string())),
+        Path::new("ok.xml"),
+        &[]
+    )
+    .is_ok());
+    let e = error(&dir.join("cut.bsdf").display().to_string());
+    assert!(
+        e.contains("bad.xml:") && e.contains("cut.bsdf") && e.contains("truncated"),
+        "{e}"
+    );
+    let e = error("missing.bsdf");
+    assert!(e.contains("bad.xml:") && e.contains("missing.bsdf"), "{e}");
+}

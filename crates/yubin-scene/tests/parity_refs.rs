@@ -106,3 +106,11 @@ fn parity_phases() {
 fn parity_ellipsoids() {
     parity("ellipsoids");
 }
+
+/// The `measured` BSDF: tabulated GGX files (isotropic; anisotropic folded
+/// by a half-turn and by mirrors) on spheres under sky, sun and an area
+/// light.
+#[test]
+fn parity_measured() {
+    parity("measured");
+}

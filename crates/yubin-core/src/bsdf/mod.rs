@@ -37,6 +37,7 @@ mod diffuse;
 mod disney;
 pub mod fresnel;
 mod mask;
+mod measured;
 pub mod microfacet;
 mod normal_map;
 mod null;
@@ -61,6 +62,7 @@ pub use difftrans::DiffTrans;
 pub use diffuse::Diffuse;
 pub use disney::DisneyParams;
 pub use mask::Mask;
+pub use measured::{Measured, MeasuredData};
 pub use normal_map::NormalMap;
 pub use null::Null;
 pub use phong::Phong;
@@ -264,6 +266,8 @@ pub enum Material {
     Phong(Phong),
     /// `difftrans`.
     DiffTrans(DiffTrans),
+    /// `measured`.
+    Measured(Measured),
 }
 
 impl Material {
@@ -285,6 +289,7 @@ impl Material {
             | Material::DiffTrans(_) => true,
             Material::RoughConductor(b) => isotropic(&b.roughness),
             Material::RoughDielectric(b) => isotropic(&b.roughness),
+            Material::Measured(b) => b.data.is_isotropic(),
             Material::TwoSided(t) => [t.front, t.back]
                 .iter()
                 .all(|&b| m.bsdfs[b as usize].turns_freely(m)),
@@ -456,6 +461,9 @@ pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
     ("difftrans", |p| {
         Ok(Material::DiffTrans(DiffTrans::from_params(p)?))
     }),
+    ("measured", |p| {
+        Ok(Material::Measured(Measured::from_params(p)?))
+    }),
 ];
 
 macro_rules! dispatch {
@@ -480,6 +488,7 @@ macro_rules! dispatch {
             Material::RoughDiffuse($b) => $e,
             Material::Phong($b) => $e,
             Material::DiffTrans($b) => $e,
+            Material::Measured($b) => $e,
         }
     };
 }
@@ -510,6 +519,7 @@ impl Material {
             Material::RoughDiffuse(b) => Lobe::RoughDiffuse(b.lobe(m, si)),
             Material::Phong(b) => Lobe::Phong(b.lobe(m, si)),
             Material::DiffTrans(b) => Lobe::DiffTrans(b.lobe(m, si)),
+            Material::Measured(b) => Lobe::Measured(b.lobe(m, si)),
             Material::TwoSided(_)
             | Material::Mask(_)
             | Material::BlendBsdf(_)
@@ -857,6 +867,7 @@ pub(crate) mod tests {
             rough_diffuse::tests::test_variants(),
             phong::tests::test_variants(),
             difftrans::tests::test_variants(),
+            measured::tests::test_variants(),
             value::tests::test_variants(),
         ]
         .into_iter()

@@ -35,6 +35,7 @@ pub use super::conductor::ConductorLobe;
 pub use super::dielectric::DielectricLobe;
 pub use super::difftrans::DiffTransLobe;
 pub use super::diffuse::DiffuseLobe;
+pub use super::measured::MeasuredLobe;
 pub use super::phong::PhongLobe;
 pub use super::plastic::PlasticLobe;
 pub use super::principled::PrincipledLobe;
@@ -103,6 +104,8 @@ pub enum Lobe {
     Phong(PhongLobe),
     /// `difftrans`.
     DiffTrans(DiffTransLobe),
+    /// `measured`.
+    Measured(MeasuredLobe),
 }
 
 macro_rules! dispatch_lobe {
@@ -123,6 +126,7 @@ macro_rules! dispatch_lobe {
             Lobe::RoughDiffuse($l) => $e,
             Lobe::Phong($l) => $e,
             Lobe::DiffTrans($l) => $e,
+            Lobe::Measured($l) => $e,
         }
     };
 }

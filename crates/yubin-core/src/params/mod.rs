@@ -245,6 +245,11 @@ pub trait Params {
     fn mesh_file(&mut self) -> Result<crate::shape::MeshData, ParamError> {
         Err(self.error("this front end reads no mesh files"))
     }
+    /// The bytes of the file named by string parameter `name` (a
+    /// `measured` BSDF's tensor file), read by the front end.
+    fn file_bytes(&mut self, name: &str) -> Result<Option<Vec<u8>>, ParamError> {
+        Err(self.param_error(name, "this front end reads no files"))
+    }
     /// The first element of the PLY file named by string parameter `name`,
     /// as a table of float properties (`ellipsoids`' Gaussians).
     fn ply_table(&mut self, name: &str) -> Result<Option<crate::shape::PropertyTable>, ParamError> {

@@ -689,6 +689,10 @@ impl Params for Recorder<'_> {
         // Not recorded, as a mesh file.
         self.inner.get().ply_table(name)
     }
+    fn file_bytes(&mut self, name: &str) -> Result<Option<Vec<u8>>, ParamError> {
+        // Not recorded, as a mesh file.
+        self.inner.get().file_bytes(name)
+    }
     fn attribute_index(&mut self, attribute: &str) -> Result<u32, ParamError> {
         let i = self.inner.get().attribute_index(attribute)?;
         (self.record.other).push(Other::Attribute(attribute.to_string(), i));
