@@ -391,3 +391,20 @@ fn measured_refuses_bad_files_at_their_line() {
     let e = error("missing.bsdf");
     assert!(e.contains("bad.xml:") && e.contains("missing.bsdf"), "{e}");
 }
+
+/// A `sunsky` date or time that does not exist is refused at its line
+/// (Mitsuba rolls it over into the next month or day).
+#[test]
+fn sunsky_refuses_dates_that_do_not_exist() {
+    let body = |extra: &str| format!(r#"<emitter type="sunsky">{extra}</emitter>"#);
+    let error = |extra: &str| match load_scene_str(&scene(&body(extra)), Path::new("sky.xml"), &[])
+    {
+        Ok(_) => panic!("{extra} loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(load_scene_str(&scene(&body("")), Path::new("ok.xml"), &[]).is_ok());
+    let e = error(r#"<integer name="month" value="2"/><integer name="day" value="30"/>"#);
+    assert!(e.contains("sky.xml:") && e.contains("no day 30"), "{e}");
+    let e = error(r#"<float name="hour" value="24.5"/>"#);
+    assert!(e.contains("sky.xml:") && e.contains("no hour 24.5"), "{e}");
+}

@@ -114,3 +114,10 @@ fn parity_ellipsoids() {
 fn parity_measured() {
     parity("measured");
 }
+
+/// The `sunsky` emitter by date, time and place, in a y-up frame: the sky
+/// seen directly, diffuse and rough metal under sun and sky.
+#[test]
+fn parity_sunsky() {
+    parity("sunsky");
+}

@@ -105,7 +105,10 @@ impl Emitter {
                 let o = disk_origin(sphere, d, u_pos);
                 (o, d, l.irradiance * disk_area(sphere), Vec3::ZERO)
             }
-            Emitter::Constant(_) | Emitter::EnvMap(_) | Emitter::Preetham(_) => {
+            Emitter::Constant(_)
+            | Emitter::EnvMap(_)
+            | Emitter::Preetham(_)
+            | Emitter::Sunsky(_) => {
                 let s = self.sample_direction(ctx, sphere.center, u_dir)?;
                 if s.pdf.is_nan() || s.pdf <= 0.0 {
                     return None;

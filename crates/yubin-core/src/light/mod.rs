@@ -29,7 +29,9 @@ mod point;
 mod preetham;
 mod projector;
 pub mod selection;
+pub mod sky_sampling;
 mod spot;
+mod sunsky;
 
 pub use area::AreaLight;
 pub use constant::ConstantLight;
@@ -42,6 +44,7 @@ pub use preetham::PreethamLight;
 pub use projector::ProjectorLight;
 pub use selection::{EmitterOptions, LightChoice, LightSampler, LightSelection};
 pub use spot::SpotLight;
+pub use sunsky::SunskyLight;
 
 use crate::interaction::SurfaceInteraction;
 use crate::params::{ParamError, Params};
@@ -128,6 +131,8 @@ pub enum Emitter {
     Projector(ProjectorLight),
     /// `directionalarea`.
     DirectionalArea(DirectionalAreaLight),
+    /// `sunsky`.
+    Sunsky(SunskyLight),
 }
 
 /// Builds an emitter plugin from its parameters.
@@ -152,6 +157,9 @@ pub const PLUGINS: &[(&str, EmitterFromParams)] = &[
     }),
     ("projector", |p| {
         Ok(Emitter::Projector(ProjectorLight::from_params(p)?))
+    }),
+    ("sunsky", |p| {
+        Ok(Emitter::Sunsky(SunskyLight::from_params(p)?))
     }),
 ];
 
@@ -254,6 +262,10 @@ pub fn build_distributions(
             sky.distribution = distributions.len() as u32;
             distributions.push(sky.sampling_distribution(allowed));
         }
+        if let Emitter::Sunsky(sky) = e {
+            sky.distribution = distributions.len() as u32;
+            distributions.push(sky.sampling_distribution(allowed));
+        }
     }
     distributions
 }
@@ -270,6 +282,7 @@ macro_rules! dispatch {
             Emitter::Preetham($l) => $e,
             Emitter::Projector($l) => $e,
             Emitter::DirectionalArea($l) => $e,
+            Emitter::Sunsky($l) => $e,
         }
     };
 }
@@ -313,6 +326,7 @@ impl Emitter {
             Emitter::Constant(c) => c.radiance,
             Emitter::EnvMap(m) => m.radiance(ctx, d),
             Emitter::Preetham(s) => s.radiance(d),
+            Emitter::Sunsky(s) => s.radiance(d),
             _ => Rgb::ZERO,
         }
     }
@@ -362,6 +376,9 @@ impl Emitter {
                 let sun = s.sun_radiance.max_element() * 2.0 * PI * (1.0 - s.cos_sun_radius);
                 disk * (self.environment_integral(ctx) + sun)
             }
+            Emitter::Sunsky(s) => {
+                disk * (self.environment_integral(ctx) + s.sun_power_for_selection())
+            }
         }
     }
 
@@ -387,7 +404,7 @@ impl Emitter {
     pub fn is_environment(&self) -> bool {
         matches!(
             self,
-            Emitter::Constant(_) | Emitter::EnvMap(_) | Emitter::Preetham(_)
+            Emitter::Constant(_) | Emitter::EnvMap(_) | Emitter::Preetham(_) | Emitter::Sunsky(_)
         )
     }
 }
@@ -554,6 +571,7 @@ pub(crate) mod tests {
             constant::tests::test_variants(),
             envmap::tests::test_variants(),
             preetham::tests::test_variants(),
+            sunsky::tests::test_variants(),
         ]
         .into_iter()
         .flatten()

@@ -80,19 +80,13 @@
 //! sun's whatever `sun_radius` is (a larger disk softens shadows, it does
 //! not add light). The part of the disk below the horizon is black.
 //!
-//! **Sampling.** The sky is tabulated on a 256 × 128 latitude–longitude
-//! grid (cell centres, luminance × sin θ; the lower half is zero), kept as a
-//! [`Distribution2D`] in a render's state like `envmap`'s (so the sky
-//! is sampled only by a render's copy of the emitter, as `envmap` is); the
-//! sun is sampled uniformly in its cone. A sample picks the sun or the sky
-//! in proportion to their powers (∫ luminance dω), and both
-//! `sample_direction` and `pdf_direction` give the mixture's density.
-//! Under MIS compensation (the integrator's `mis_compensation`, as for
-//! `envmap`)
-//! the table holds the sky's excess over its mean over the sphere, and the
-//! sky's power for the choice is that excess's: BSDF sampling covers the
-//! even part of the sky, light sampling the sun and the bright sky around
-//! it.
+//! **Sampling** (`light::sky_sampling`, shared with `sunsky`): the sky is
+//! tabulated on a 256 × 128 latitude–longitude grid, kept in a render's
+//! state like `envmap`'s (so the sky is sampled only by a render's copy of
+//! the emitter, as `envmap` is); the sun is sampled uniformly in its cone,
+//! chosen in proportion to the powers; under MIS compensation (the
+//! integrator's `mis_compensation`, as for `envmap`) the table holds the
+//! sky's excess over its mean.
 //!
 //! References: A. J. Preetham, P. Shirley, B. Smits, "A Practical Analytic
 //! Model for Daylight", SIGGRAPH 1999 (appendix A: coefficients, zenith
@@ -110,22 +104,18 @@
 //! refraction; NOAA's calculator adds ~0.02° at 35° elevation, ~0.1° at
 //! 10°).
 
-use super::{latlong, EmitterContext, EmitterModel, EmitterSample};
-use crate::math::Frame;
+use super::sky_sampling::{sky_pdf, sky_sample, sky_table, SunDisk};
+use super::{EmitterContext, EmitterModel, EmitterSample};
 use crate::params::{ParamError, Params};
-use crate::sampling::{square_to_uniform_cone, uniform_cone_pdf, Distribution2D};
+use crate::sampling::Distribution2D;
 use crate::spectrum::{cie1931_xyz, luminance, xyz_to_srgb};
 use crate::Rgb;
 use glam::{DMat3, DMat4, Mat3, Vec2, Vec3};
-use std::f32::consts::PI;
 
 /// The real sun's angular radius, degrees.
 const SUN_RADIUS_DEG: f64 = 0.2655;
 /// Luminous efficacy K_m (lm/W) that turns cd/m² into W/(m²·sr).
 const KM: f32 = 683.0;
-/// Sky sampling table (latitude–longitude cells).
-const TABLE_W: usize = 256;
-const TABLE_H: usize = 128;
 
 /// Perez coefficients A..E for Y, x and y at turbidity `t` (Preetham et
 /// al. 1999, appendix A.2).
@@ -540,62 +530,25 @@ impl PreethamLight {
     /// its mean when `compensated`) and sets [`PreethamLight::sun_prob`]
     /// from the sun's and the (tabulated) sky's powers.
     pub fn sampling_distribution(&mut self, compensated: bool) -> Distribution2D {
-        let mut lum = vec![0.0f32; TABLE_W * TABLE_H];
-        let sin_theta = |r: usize| (PI * (r as f32 + 0.5) / TABLE_H as f32).sin();
-        for r in 0..TABLE_H / 2 {
-            let v = (r as f32 + 0.5) / TABLE_H as f32;
-            for c in 0..TABLE_W {
-                let u = (c as f32 + 0.5) / TABLE_W as f32;
-                let d = latlong::direction_of(Vec2::new(u, v));
-                lum[r * TABLE_W + c] = luminance(self.sky_radiance_local(d));
-            }
+        let sun_power = luminance(self.sun_radiance) as f64 * self.disk().solid_angle() as f64;
+        let (dist, sun_prob) = sky_table(|d| self.sky_radiance_local(d), sun_power, compensated);
+        self.sun_prob = sun_prob;
+        dist
+    }
+
+    /// The sun's disk.
+    #[inline]
+    fn disk(&self) -> SunDisk {
+        SunDisk {
+            direction: self.sun,
+            cos_radius: self.cos_sun_radius,
         }
-        // Luminance above `offset` × sin θ per cell, and its power
-        // (dω = 2π² sin θ du dv).
-        let weigh = |offset: f32| -> (Vec<f32>, f64) {
-            let weights: Vec<f32> = (lum.iter().enumerate())
-                .map(|(i, &l)| (l - offset).max(0.0) * sin_theta(i / TABLE_W))
-                .collect();
-            let cell = 2.0 * (PI as f64).powi(2) / (TABLE_W * TABLE_H) as f64;
-            let power = weights.iter().map(|&w| w as f64).sum::<f64>() * cell;
-            (weights, power)
-        };
-        let (mut weights, mut sky_power) = weigh(0.0);
-        if compensated {
-            // The mean over the sphere (the ground below the horizon is black).
-            (weights, sky_power) = weigh((sky_power / (4.0 * PI as f64)) as f32);
-        }
-        let sun_power = luminance(self.sun_radiance) as f64
-            * 2.0
-            * PI as f64
-            * (1.0 - self.cos_sun_radius as f64);
-        let total = sky_power + sun_power;
-        self.sun_prob = if total > 0.0 {
-            (sun_power / total) as f32
-        } else {
-            0.0
-        };
-        if sky_power <= 0.0 {
-            // Never sampled; any valid table will do.
-            weights.iter_mut().for_each(|w| *w = 1.0);
-        }
-        Distribution2D::new(&weights, TABLE_W, TABLE_H)
     }
 
     /// Density (solid angle) of sampling sky-frame direction `d`.
     #[inline]
     fn pdf_local(&self, dist: &Distribution2D, d: Vec3) -> f32 {
-        let mut pdf = 0.0;
-        if self.sun_prob > 0.0 && d.dot(self.sun) >= self.cos_sun_radius {
-            pdf += self.sun_prob * uniform_cone_pdf(self.cos_sun_radius);
-        }
-        let sky_prob = 1.0 - self.sun_prob;
-        if sky_prob > 0.0 && d.y > 0.0 {
-            let uv = latlong::uv_of(d);
-            let x = uv.x - crate::math::floor(uv.x);
-            pdf += sky_prob * latlong::solid_angle_pdf(dist.pdf(Vec2::new(x, uv.y)), d);
-        }
-        pdf
+        sky_pdf(dist, &self.disk(), self.sun_prob, d)
     }
 
     /// Whether there is anything to sample.
@@ -611,19 +564,7 @@ impl EmitterModel for PreethamLight {
             return None;
         }
         let dist = &ctx.distributions[self.distribution as usize];
-        const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
-        let local = if u.x < self.sun_prob {
-            let ux = (u.x / self.sun_prob).min(ONE_MINUS_EPS);
-            let cone = square_to_uniform_cone(Vec2::new(ux, u.y), self.cos_sun_radius);
-            Frame::from_normal(self.sun).to_world(cone)
-        } else {
-            let ux = ((u.x - self.sun_prob) / (1.0 - self.sun_prob)).min(ONE_MINUS_EPS);
-            let (uv, pdf_uv) = dist.sample(Vec2::new(ux, u.y));
-            if pdf_uv == 0.0 || uv.y <= 0.0 {
-                return None;
-            }
-            latlong::direction_of(uv)
-        };
+        let local = sky_sample(dist, &self.disk(), self.sun_prob, u)?;
         let wi = (self.world_from_light * local).normalize();
         // As in `envmap`: radiance and density of the direction as a traced
         // ray would find them.
@@ -657,6 +598,7 @@ pub(crate) mod tests {
     use crate::light::tests::Variant;
     use crate::light::Emitter;
     use crate::testing::params::{MapParams, Value};
+    use std::f32::consts::PI;
 
     fn context(dists: &[Distribution2D]) -> EmitterContext<'_> {
         EmitterContext {
