@@ -371,7 +371,7 @@ fn irradiancemeter_measures_the_mean_irradiance_over_its_shape() {
 /// target, as Mitsuba 3.9.1 does: ρ/π over the square itself (obliquely
 /// too) or at a point of it, a quarter of that over a target twice as
 /// wide, the square's share of the bounding sphere's disk without a
-/// target, nothing from behind.
+/// target, nothing from behind, and its share of a mesh target's area.
 #[test]
 fn distant_averages_over_its_target() {
     let reading = |direction: &str, target: &str| -> (f64, f64) {
@@ -400,6 +400,19 @@ fn distant_averages_over_its_target() {
     };
     let lambert = 0.5 / std::f64::consts::PI;
     let rect = r#"<shape type="rectangle" name="target"/>"#;
+    let dir = common::scratch_dir("distant");
+    let ply = dir.join("strip.ply");
+    std::fs::write(
+        &ply,
+        "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 4\nproperty list uchar int vertex_indices\nend_header\n\
+         0 -1 0\n1 -1 0\n1 1 0\n0 1 0\n3 -1 0\n3 1 0\n3 0 1 2\n3 0 2 3\n3 1 4 5\n3 1 5 2\n",
+    )
+    .unwrap();
+    let mesh_target = format!(
+        r#"<shape type="ply" name="target"><string name="filename" value="{}"/></shape>"#,
+        ply.display()
+    );
     let wide = r#"<shape type="rectangle" name="target"><transform name="to_world"><scale value="2"/></transform></shape>"#;
     for (direction, target, want) in [
         ("0, 0.6, -0.8", rect, lambert),
@@ -412,6 +425,10 @@ fn distant_averages_over_its_target() {
         // The square's 4 of the disk's π·2 (the sphere of its box, R = √2).
         ("0, 0, -1", "", lambert * 4.0 / (2.0 * std::f64::consts::PI)),
         ("0, 0, 1", rect, 0.0),
+        // A mesh of unequal triangles over [0, 3] × [−1, 1]: the square
+        // holds 2 of its 6 units of area (1/2 if triangles were chosen
+        // uniformly).
+        ("0, 0, -1", &mesh_target, lambert / 3.0),
     ] {
         let (mean, se) = reading(direction, target);
         let z = (mean - want) / se;

@@ -5,7 +5,7 @@
 //! |-------------|-----------------|-----------|---------|
 //! | `direction` | vector          | (0, 0, 1) | the direction rays travel (into the scene): the sensor sees light leaving along its opposite |
 //! | `to_world`  | transform       | —         | instead of `direction`: rays travel along to_world·(0, 0, 1) |
-//! | `target`    | point or shape  | —         | where rays land: a point, or a nested analytic shape (`<shape type="rectangle" name="target">`), sampled uniformly by area; without one, a disk through the scene's bounding sphere |
+//! | `target`    | point or shape  | —         | where rays land: a point, or a nested shape (`<shape type="rectangle" name="target">`, a mesh too), sampled uniformly by area; without one, a disk through the scene's bounding sphere |
 //!
 //! ```xml
 //! <sensor type="distant">
@@ -26,14 +26,17 @@
 //! count what the sky gives). As in Mitsuba 3.9.1 the film must be 1 pixel
 //! wide or tall, `direction` and `to_world` exclude each other, and the
 //! target shape is not part of the scene (its bounding sphere leaves it
-//! out). A mesh target is refused (Mitsuba takes one).
+//! out). A mesh target picks a triangle by area, then a point uniformly in
+//! it.
 //!
 //! Reference: Mitsuba 3 documentation, "Distant radiancemeter sensor
 //! (distant)".
 
 use crate::math::{Frame, Ray};
 use crate::params::{Family, ParamError, Params};
-use crate::sampling::square_to_uniform_disk_concentric;
+use crate::sampling::{
+    square_to_uniform_disk_concentric, square_to_uniform_triangle, Distribution1D,
+};
 use crate::shape::{BuiltShape, Shape, ShapeModel};
 use glam::{Vec2, Vec3};
 
@@ -51,6 +54,54 @@ enum Target {
     Point(Vec3),
     /// Points of a shape, uniform by area.
     Shape(Shape),
+    /// Points of a mesh, uniform by area (interned).
+    Mesh(&'static MeshTarget),
+}
+
+/// A mesh's triangles (world space) and their areas, for sampling.
+#[derive(Debug)]
+pub struct MeshTarget {
+    triangles: Vec<[Vec3; 3]>,
+    areas: Distribution1D,
+}
+
+impl PartialEq for MeshTarget {
+    fn eq(&self, other: &Self) -> bool {
+        self.triangles == other.triangles
+    }
+}
+
+impl MeshTarget {
+    /// The target of `mesh`'s triangles; `None` when they have no area.
+    fn new(mesh: &crate::shape::TriangleMesh) -> Option<&'static MeshTarget> {
+        let triangles: Vec<[Vec3; 3]> = (0..mesh.triangle_count())
+            .map(|t| mesh.triangle(t))
+            .collect();
+        let areas: Vec<f32> = (0..mesh.triangle_count())
+            .map(|t| mesh.triangle_area(t))
+            .collect();
+        let total: f32 = areas.iter().sum();
+        if total.is_nan() || total <= 0.0 {
+            return None;
+        }
+        static INTERNED: std::sync::Mutex<Vec<&'static MeshTarget>> =
+            std::sync::Mutex::new(Vec::new());
+        let target = MeshTarget {
+            triangles,
+            areas: Distribution1D::new(&areas),
+        };
+        Some(crate::shape::interned(&INTERNED, target))
+    }
+
+    /// A point uniform by area, from the uniform `u`.
+    fn sample(&self, u: Vec2) -> Vec3 {
+        // The position within the chosen triangle's step is uniform: reused.
+        let (x, _, tri) = self.areas.sample(u.x);
+        let within = (x * self.triangles.len() as f32 - tri as f32).clamp(0.0, 1.0);
+        let b = square_to_uniform_triangle(Vec2::new(within, u.y));
+        let [a, p1, p2] = self.triangles[tri];
+        a * (1.0 - b.x - b.y) + p1 * b.x + p2 * b.y
+    }
 }
 
 /// A sensor of the radiance leaving a target in one direction.
@@ -90,18 +141,18 @@ impl Distant {
         let d = d
             .try_normalize()
             .ok_or_else(|| p.param_error("direction", "must not be zero"))?;
-        let shape_target =
-            match p.named_child(Family::Shape, "target")? {
-                Some(mut shape) => Some(match crate::shape::from_params(&mut *shape)? {
-                    BuiltShape::Analytic(s) => s,
-                    BuiltShape::Mesh(_) => return Err(shape.error(
-                        "a mesh target is not supported: use a rectangle, disk, sphere or cylinder",
-                    )),
-                }),
-                None => None,
-            };
+        let shape_target = match p.named_child(Family::Shape, "target")? {
+            Some(mut shape) => Some(match crate::shape::from_params(&mut *shape)? {
+                BuiltShape::Analytic(s) => Target::Shape(s),
+                BuiltShape::Mesh(m) => Target::Mesh(
+                    MeshTarget::new(&m)
+                        .ok_or_else(|| shape.error("the target mesh has no area"))?,
+                ),
+            }),
+            None => None,
+        };
         let target = match shape_target {
-            Some(s) => Target::Shape(s),
+            Some(t) => t,
             None => match p.point("target")? {
                 Some(t) => Target::Point(t),
                 None => Target::Scene,
@@ -145,6 +196,7 @@ impl Distant {
                 }
                 ps.p - 2.0 * r * self.d
             }
+            Target::Mesh(m) => m.sample(u) - 2.0 * r * self.d,
             Target::Scene => {
                 let disk = square_to_uniform_disk_concentric(u);
                 let across = Frame::from_normal(self.d).to_world(disk.extend(0.0));
