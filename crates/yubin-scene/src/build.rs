@@ -650,7 +650,11 @@ impl Builder<'_> {
         if emission.is_some()
             && matches!(
                 shape,
-                Shape::Sdf(_) | Shape::SdfGrid(_) | Shape::Ellipsoids(_) | Shape::EllipsoidsMesh(_)
+                Shape::Sdf(_)
+                    | Shape::SdfGrid(_)
+                    | Shape::Ellipsoids(_)
+                    | Shape::EllipsoidsMesh(_)
+                    | Shape::LinearCurve(_)
             )
         {
             return Err(obj.error(format!(

@@ -408,3 +408,31 @@ fn sunsky_refuses_dates_that_do_not_exist() {
     let e = error(r#"<float name="hour" value="24.5"/>"#);
     assert!(e.contains("sky.xml:") && e.contains("no hour 24.5"), "{e}");
 }
+
+/// A bad curve file is refused at its line in the scene, naming the file
+/// and its own line.
+#[test]
+fn linearcurve_refuses_bad_files_at_their_line() {
+    let dir = common::scratch_dir("curves");
+    let error = |text: &str| {
+        let file = dir.join("bad.txt");
+        std::fs::write(&file, text).unwrap();
+        let body = format!(
+            r#"<shape type="linearcurve"><string name="filename" value="{}"/></shape>"#,
+            file.display()
+        );
+        match load_scene_str(&scene(&body), Path::new("curves.xml"), &[]) {
+            Ok(_) => panic!("{text:?} loaded"),
+            Err(e) => e.to_string(),
+        }
+    };
+    let e = error("0 0 0 0.1\n1 0 0\n");
+    assert!(
+        e.contains("curves.xml:") && e.contains("bad.txt: line 2"),
+        "{e}"
+    );
+    let e = error("0 0 0 0.1\n");
+    assert!(e.contains("at least 2 control points"), "{e}");
+    let e = error("");
+    assert!(e.contains("no control points"), "{e}");
+}

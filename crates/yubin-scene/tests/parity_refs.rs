@@ -121,3 +121,10 @@ fn parity_measured() {
 fn parity_sunsky() {
     parity("sunsky");
 }
+
+/// `linearcurve`: a tapering helix, a zigzag and a cone-like stub (round
+/// joints and capped ends) with a checkerboard over their uv.
+#[test]
+fn parity_linearcurve() {
+    parity("linearcurve");
+}

@@ -53,7 +53,8 @@ pub(crate) fn shape_packet_avx2(
         | Shape::Sdf(_)
         | Shape::SdfGrid(_)
         | Shape::Ellipsoids(_)
-        | Shape::EllipsoidsMesh(_) => None,
+        | Shape::EllipsoidsMesh(_)
+        | Shape::LinearCurve(_) => None,
     }
 }
 
@@ -73,7 +74,8 @@ pub(crate) fn shape_blocks_avx2(shape: &Shape, rays: &RayPacket, t_max: f32x8) -
         | Shape::Sdf(_)
         | Shape::SdfGrid(_)
         | Shape::Ellipsoids(_)
-        | Shape::EllipsoidsMesh(_) => return None,
+        | Shape::EllipsoidsMesh(_)
+        | Shape::LinearCurve(_) => return None,
     })
 }
 

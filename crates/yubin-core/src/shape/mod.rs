@@ -18,6 +18,7 @@ mod cylinder;
 mod disk;
 pub mod ellipsoids;
 pub mod ellipsoidsmesh;
+pub mod linearcurve;
 pub mod mandelbox;
 mod mesh;
 mod rectangle;
@@ -34,6 +35,7 @@ pub use cylinder::Cylinder;
 pub use disk::Disk;
 pub use ellipsoids::{Ellipsoids, PropertyTable};
 pub use ellipsoidsmesh::EllipsoidsMesh;
+pub use linearcurve::LinearCurve;
 #[cfg(test)]
 pub(crate) use mesh::tests as mesh_tests;
 pub use mesh::{MeshData, MeshShape, TriangleMesh};
@@ -121,6 +123,11 @@ pub const PLUGINS: &[(&str, ShapeFromParams)] = &[
             EllipsoidsMesh::from_params(p)?,
         )))
     }),
+    ("linearcurve", |p| {
+        Ok(BuiltShape::Analytic(Shape::LinearCurve(
+            LinearCurve::from_params(p)?,
+        )))
+    }),
 ];
 
 /// The `to_world` and `flip_normals` of a shape placed by a transform
@@ -134,7 +141,7 @@ pub(crate) fn placement(p: &mut dyn Params) -> Result<(Transform, bool), ParamEr
 pub fn from_params(p: &mut dyn Params) -> Result<BuiltShape, ParamError> {
     let known =
         "obj, ply, serialized, cube, sphere, rectangle, disk, cylinder, sdf, sdfgrid, mandelbox, \
-                 ellipsoids, ellipsoidsmesh, shapegroup, instance";
+                 ellipsoids, ellipsoidsmesh, linearcurve, shapegroup, instance";
     plugin_of(p, "shape", PLUGINS, Some(known))?(p)
 }
 
@@ -322,6 +329,8 @@ pub enum Shape {
     Ellipsoids(Ellipsoids),
     /// `ellipsoidsmesh`: one primitive (a convex shell) per Gaussian.
     EllipsoidsMesh(EllipsoidsMesh),
+    /// `linearcurve`: one primitive per segment.
+    LinearCurve(LinearCurve),
 }
 
 impl Shape {
@@ -349,7 +358,8 @@ impl Shape {
             | Shape::Sdf(_)
             | Shape::SdfGrid(_)
             | Shape::Ellipsoids(_)
-            | Shape::EllipsoidsMesh(_) => None,
+            | Shape::EllipsoidsMesh(_)
+            | Shape::LinearCurve(_) => None,
         }
     }
 
@@ -380,9 +390,11 @@ impl Shape {
             }),
             Shape::Cube(c) => Shape::Cube(Cube::new(t.after(&c.to_world), c.flip_normals)),
             // Never an emitter, so never placed for light sampling.
-            Shape::Sdf(_) | Shape::SdfGrid(_) | Shape::Ellipsoids(_) | Shape::EllipsoidsMesh(_) => {
-                return None
-            }
+            Shape::Sdf(_)
+            | Shape::SdfGrid(_)
+            | Shape::Ellipsoids(_)
+            | Shape::EllipsoidsMesh(_)
+            | Shape::LinearCurve(_) => return None,
         })
     }
 }
@@ -400,6 +412,7 @@ macro_rules! dispatch {
             Shape::SdfGrid($s) => $e,
             Shape::Ellipsoids($s) => $e,
             Shape::EllipsoidsMesh($s) => $e,
+            Shape::LinearCurve($s) => $e,
         }
     };
 }
