@@ -655,6 +655,7 @@ impl Builder<'_> {
                     | Shape::Ellipsoids(_)
                     | Shape::EllipsoidsMesh(_)
                     | Shape::LinearCurve(_)
+                    | Shape::BSplineCurve(_)
             )
         {
             return Err(obj.error(format!(

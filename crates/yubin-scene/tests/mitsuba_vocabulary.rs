@@ -412,13 +412,13 @@ fn sunsky_refuses_dates_that_do_not_exist() {
 /// A bad curve file is refused at its line in the scene, naming the file
 /// and its own line.
 #[test]
-fn linearcurve_refuses_bad_files_at_their_line() {
+fn curves_refuse_bad_files_at_their_line() {
     let dir = common::scratch_dir("curves");
-    let error = |text: &str| {
+    let error_of = |plugin: &str, text: &str| {
         let file = dir.join("bad.txt");
         std::fs::write(&file, text).unwrap();
         let body = format!(
-            r#"<shape type="linearcurve"><string name="filename" value="{}"/></shape>"#,
+            r#"<shape type="{plugin}"><string name="filename" value="{}"/></shape>"#,
             file.display()
         );
         match load_scene_str(&scene(&body), Path::new("curves.xml"), &[]) {
@@ -426,9 +426,15 @@ fn linearcurve_refuses_bad_files_at_their_line() {
             Err(e) => e.to_string(),
         }
     };
+    let error = |text: &str| error_of("linearcurve", text);
     let e = error("0 0 0 0.1\n1 0 0\n");
     assert!(
         e.contains("curves.xml:") && e.contains("bad.txt: line 2"),
+        "{e}"
+    );
+    let e = error_of("bsplinecurve", "0 0 0 0.1\n1 0 0 0.1\n2 0 0 0.1\n");
+    assert!(
+        e.contains("curves.xml:") && e.contains("at least 4 control points"),
         "{e}"
     );
     let e = error("0 0 0 0.1\n");

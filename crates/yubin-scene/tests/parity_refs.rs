@@ -128,3 +128,10 @@ fn parity_sunsky() {
 fn parity_linearcurve() {
     parity("linearcurve");
 }
+
+/// `bsplinecurve`: a tapering helix and a wave of growing radius, open
+/// ends, a checkerboard over their uv.
+#[test]
+fn parity_bsplinecurve() {
+    parity("bsplinecurve");
+}

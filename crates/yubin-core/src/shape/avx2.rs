@@ -54,7 +54,8 @@ pub(crate) fn shape_packet_avx2(
         | Shape::SdfGrid(_)
         | Shape::Ellipsoids(_)
         | Shape::EllipsoidsMesh(_)
-        | Shape::LinearCurve(_) => None,
+        | Shape::LinearCurve(_)
+        | Shape::BSplineCurve(_) => None,
     }
 }
 
@@ -75,7 +76,8 @@ pub(crate) fn shape_blocks_avx2(shape: &Shape, rays: &RayPacket, t_max: f32x8) -
         | Shape::SdfGrid(_)
         | Shape::Ellipsoids(_)
         | Shape::EllipsoidsMesh(_)
-        | Shape::LinearCurve(_) => return None,
+        | Shape::LinearCurve(_)
+        | Shape::BSplineCurve(_) => return None,
     })
 }
 

@@ -216,7 +216,7 @@ fn sphere_entry(o: Vec3, d: Vec3, c: Vec3, r: f32) -> Option<f32> {
 
 /// Where the ray `o + t d` enters the segment, and the touching sphere's
 /// parameter there.
-fn enter(s: &Segment, o: Vec3, d: Vec3) -> Option<(f32, f32)> {
+pub(super) fn enter(s: &Segment, o: Vec3, d: Vec3) -> Option<(f32, f32)> {
     let Some(cone) = Cone::of(s) else {
         let (c, r, v) = if s.a.w >= s.b.w {
             (s.a.truncate(), s.a.w, 0.0)

@@ -13,6 +13,7 @@
 
 #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
 mod avx2;
+pub mod bsplinecurve;
 pub mod cube;
 mod cylinder;
 mod disk;
@@ -30,6 +31,7 @@ mod triangle;
 
 #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
 pub(crate) use avx2::{shape_blocks_avx2, shape_packet_avx2};
+pub use bsplinecurve::BSplineCurve;
 pub use cube::Cube;
 pub use cylinder::Cylinder;
 pub use disk::Disk;
@@ -128,6 +130,11 @@ pub const PLUGINS: &[(&str, ShapeFromParams)] = &[
             LinearCurve::from_params(p)?,
         )))
     }),
+    ("bsplinecurve", |p| {
+        Ok(BuiltShape::Analytic(Shape::BSplineCurve(
+            BSplineCurve::from_params(p)?,
+        )))
+    }),
 ];
 
 /// The `to_world` and `flip_normals` of a shape placed by a transform
@@ -141,7 +148,7 @@ pub(crate) fn placement(p: &mut dyn Params) -> Result<(Transform, bool), ParamEr
 pub fn from_params(p: &mut dyn Params) -> Result<BuiltShape, ParamError> {
     let known =
         "obj, ply, serialized, cube, sphere, rectangle, disk, cylinder, sdf, sdfgrid, mandelbox, \
-                 ellipsoids, ellipsoidsmesh, linearcurve, shapegroup, instance";
+                 ellipsoids, ellipsoidsmesh, linearcurve, bsplinecurve, shapegroup, instance";
     plugin_of(p, "shape", PLUGINS, Some(known))?(p)
 }
 
@@ -331,6 +338,8 @@ pub enum Shape {
     EllipsoidsMesh(EllipsoidsMesh),
     /// `linearcurve`: one primitive per segment.
     LinearCurve(LinearCurve),
+    /// `bsplinecurve`: one primitive per segment.
+    BSplineCurve(BSplineCurve),
 }
 
 impl Shape {
@@ -359,7 +368,8 @@ impl Shape {
             | Shape::SdfGrid(_)
             | Shape::Ellipsoids(_)
             | Shape::EllipsoidsMesh(_)
-            | Shape::LinearCurve(_) => None,
+            | Shape::LinearCurve(_)
+            | Shape::BSplineCurve(_) => None,
         }
     }
 
@@ -394,7 +404,8 @@ impl Shape {
             | Shape::SdfGrid(_)
             | Shape::Ellipsoids(_)
             | Shape::EllipsoidsMesh(_)
-            | Shape::LinearCurve(_) => return None,
+            | Shape::LinearCurve(_)
+            | Shape::BSplineCurve(_) => return None,
         })
     }
 }
@@ -413,6 +424,7 @@ macro_rules! dispatch {
             Shape::Ellipsoids($s) => $e,
             Shape::EllipsoidsMesh($s) => $e,
             Shape::LinearCurve($s) => $e,
+            Shape::BSplineCurve($s) => $e,
         }
     };
 }
