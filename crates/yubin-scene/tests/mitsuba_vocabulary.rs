@@ -442,3 +442,25 @@ fn curves_refuse_bad_files_at_their_line() {
     let e = error("");
     assert!(e.contains("no control points"), "{e}");
 }
+
+/// `hair`'s bad parameters are refused at their line.
+#[test]
+fn hair_refuses_bad_parameters_at_their_line() {
+    let error = |bsdf: &str| {
+        let body = format!(r#"<shape type="sphere"><bsdf type="hair">{bsdf}</bsdf></shape>"#);
+        match load_scene_str(&scene(&body), Path::new("hair.xml"), &[]) {
+            Ok(_) => panic!("{bsdf} loaded"),
+            Err(e) => e.to_string(),
+        }
+    };
+    let e =
+        error(r#"<float name="eumelanin" value="1"/><rgb name="sigma_a" value="0.2, 0.3, 0.4"/>"#);
+    assert!(e.contains("hair.xml:") && e.contains("not both"), "{e}");
+    let e = error(r#"<float name="longitudinal_roughness" value="1.5"/>"#);
+    assert!(
+        e.contains("longitudinal_roughness") && e.contains("[0, 1]"),
+        "{e}"
+    );
+    let e = error(r#"<float name="int_ior" value="1.000277"/>"#);
+    assert!(e.contains("differ"), "{e}");
+}

@@ -135,3 +135,10 @@ fn parity_linearcurve() {
 fn parity_bsplinecurve() {
     parity("bsplinecurve");
 }
+
+/// The `hair` BSDF on `bsplinecurve` strands over a sphere: blonde hair,
+/// long paths through many fibres.
+#[test]
+fn parity_hair() {
+    parity("hair");
+}

@@ -36,6 +36,7 @@ mod difftrans;
 mod diffuse;
 mod disney;
 pub mod fresnel;
+mod hair;
 mod mask;
 mod measured;
 pub mod microfacet;
@@ -61,6 +62,7 @@ pub use dielectric::Dielectric;
 pub use difftrans::DiffTrans;
 pub use diffuse::Diffuse;
 pub use disney::DisneyParams;
+pub use hair::Hair;
 pub use mask::Mask;
 pub use measured::{Measured, MeasuredData};
 pub use normal_map::NormalMap;
@@ -268,6 +270,8 @@ pub enum Material {
     DiffTrans(DiffTrans),
     /// `measured`.
     Measured(Measured),
+    /// `hair`.
+    Hair(Hair),
 }
 
 impl Material {
@@ -299,7 +303,8 @@ impl Material {
             | Material::NormalMap(_)
             | Material::Principled(_)
             | Material::PrincipledThin(_)
-            | Material::Phong(_) => false,
+            | Material::Phong(_)
+            | Material::Hair(_) => false,
         }
     }
 }
@@ -464,6 +469,7 @@ pub const PLUGINS: &[(&str, BsdfFromParams)] = &[
     ("measured", |p| {
         Ok(Material::Measured(Measured::from_params(p)?))
     }),
+    ("hair", |p| Ok(Material::Hair(Hair::from_params(p)?))),
 ];
 
 macro_rules! dispatch {
@@ -489,6 +495,7 @@ macro_rules! dispatch {
             Material::Phong($b) => $e,
             Material::DiffTrans($b) => $e,
             Material::Measured($b) => $e,
+            Material::Hair($b) => $e,
         }
     };
 }
@@ -520,6 +527,7 @@ impl Material {
             Material::Phong(b) => Lobe::Phong(b.lobe(m, si)),
             Material::DiffTrans(b) => Lobe::DiffTrans(b.lobe(m, si)),
             Material::Measured(b) => Lobe::Measured(b.lobe(m, si)),
+            Material::Hair(b) => Lobe::Hair(b.lobe(m, si)),
             Material::TwoSided(_)
             | Material::Mask(_)
             | Material::BlendBsdf(_)
@@ -868,6 +876,7 @@ pub(crate) mod tests {
             phong::tests::test_variants(),
             difftrans::tests::test_variants(),
             measured::tests::test_variants(),
+            hair::tests::test_variants(),
             value::tests::test_variants(),
         ]
         .into_iter()

@@ -35,6 +35,7 @@ pub use super::conductor::ConductorLobe;
 pub use super::dielectric::DielectricLobe;
 pub use super::difftrans::DiffTransLobe;
 pub use super::diffuse::DiffuseLobe;
+pub use super::hair::HairLobe;
 pub use super::measured::MeasuredLobe;
 pub use super::phong::PhongLobe;
 pub use super::plastic::PlasticLobe;
@@ -106,6 +107,8 @@ pub enum Lobe {
     DiffTrans(DiffTransLobe),
     /// `measured`.
     Measured(MeasuredLobe),
+    /// `hair`.
+    Hair(HairLobe),
 }
 
 macro_rules! dispatch_lobe {
@@ -127,6 +130,7 @@ macro_rules! dispatch_lobe {
             Lobe::Phong($l) => $e,
             Lobe::DiffTrans($l) => $e,
             Lobe::Measured($l) => $e,
+            Lobe::Hair($l) => $e,
         }
     };
 }
