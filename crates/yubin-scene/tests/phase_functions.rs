@@ -217,6 +217,44 @@ fn sggx_scatters_and_attenuates_by_projected_area() {
     assert!(z.abs() < 4.0, "sggx in a heterogeneous medium: z = {z}");
 }
 
+/// The mean and standard error of what a 1 × 16 meter at `origin` looking
+/// along `direction` reads through a cube [−1, 1]³ of purely absorbing
+/// `medium` (σ_t = 1 over the cube) with phase function `phase`, under a
+/// sky of 1: the transmittance along its ray.
+fn transmittance_through_cube(
+    medium: &str,
+    phase: &str,
+    origin: &str,
+    direction: &str,
+) -> (f64, f64) {
+    let sigma_t = match medium {
+        "homogeneous" => r#"<float name="sigma_t" value="1"/>"#,
+        _ => COVERING_UNIT_EXTINCTION,
+    };
+    let xml = format!(
+        r#"<scene version="3.0.0">
+<integrator type="volpath"><integer name="max_depth" value="4"/></integrator>
+<sensor type="radiancemeter">
+  <point name="origin" value="{origin}"/><vector name="direction" value="{direction}"/>
+  <film type="hdrfilm"><integer name="width" value="1"/><integer name="height" value="16"/>
+    <rfilter type="box"/></film>
+</sensor>
+<emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
+<shape type="cube"><bsdf type="null"/>
+  <medium type="{medium}" name="interior">{sigma_t}<float name="albedo" value="0"/>{phase}</medium>
+</shape>
+</scene>"#
+    );
+    let loaded = load_scene_str(&xml, Path::new("cube.xml"), &[]).unwrap_or_else(|e| panic!("{e}"));
+    let out = render(
+        &loaded.scene,
+        loaded.integrator.as_ref(),
+        &RenderSettings { spp: 4096, seed: 3 },
+        &|_| {},
+    );
+    common::pixel_mean_and_error(&out.image.data, 0)
+}
+
 /// Fibres along z, S = diag(1, 1, 4): σ(z) = 2, so 2 units of σ_t = 1
 /// along z transmit e^−4 in both media. (Mitsuba 3.9.1's heterogeneous
 /// medium keeps its majorant at σ_t and transmits about e^−2 = 0.133;
@@ -225,36 +263,8 @@ fn sggx_scatters_and_attenuates_by_projected_area() {
 fn sggx_projected_area_above_one_is_bounded_by_the_majorant() {
     let fibres = sggx_phase("fibres", &[[1.0, 1.0, 4.0, 0.0, 0.0, 0.0]; 2]);
     for medium in ["homogeneous", "heterogeneous"] {
-        let sigma_t = match medium {
-            "homogeneous" => r#"<float name="sigma_t" value="1"/>"#,
-            _ => COVERING_UNIT_EXTINCTION,
-        };
-        let xml = format!(
-            r#"<scene version="3.0.0">
-<integrator type="volpath"><integer name="max_depth" value="4"/></integrator>
-<sensor type="radiancemeter">
-  <point name="origin" value="0, 0, -5"/><vector name="direction" value="0, 0, 1"/>
-  <film type="hdrfilm"><integer name="width" value="1"/><integer name="height" value="16"/>
-    <rfilter type="box"/></film>
-</sensor>
-<emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
-<shape type="cube"><bsdf type="null"/>
-  <medium type="{medium}" name="interior">
-    {sigma_t}<float name="albedo" value="0"/>{fibres}
-  </medium>
-</shape>
-</scene>"#
-        );
         let want = (-4.0f64).exp();
-        let loaded =
-            load_scene_str(&xml, Path::new("fibres.xml"), &[]).unwrap_or_else(|e| panic!("{e}"));
-        let out = render(
-            &loaded.scene,
-            loaded.integrator.as_ref(),
-            &RenderSettings { spp: 4096, seed: 3 },
-            &|_| {},
-        );
-        let (mean, se) = common::pixel_mean_and_error(&out.image.data, 0);
+        let (mean, se) = transmittance_through_cube(medium, &fibres, "0, 0, -5", "0, 0, 1");
         assert!(
             (mean - want).abs() < 4.0 * se + 1e-6,
             "{medium}: {mean} ± {se}, want {want}"
@@ -350,33 +360,7 @@ fn sggx_varying_over_space_is_read_along_the_flight() {
         / n as f64;
     let want = (-depth).exp();
     for medium in ["homogeneous", "heterogeneous"] {
-        let sigma_t = match medium {
-            "homogeneous" => r#"<float name="sigma_t" value="1"/>"#,
-            _ => COVERING_UNIT_EXTINCTION,
-        };
-        let xml = format!(
-            r#"<scene version="3.0.0">
-<integrator type="volpath"><integer name="max_depth" value="4"/></integrator>
-<sensor type="radiancemeter">
-  <point name="origin" value="-0.5, 0.3, -5"/><vector name="direction" value="0.1, 0, 1"/>
-  <film type="hdrfilm"><integer name="width" value="1"/><integer name="height" value="16"/>
-    <rfilter type="box"/></film>
-</sensor>
-<emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
-<shape type="cube"><bsdf type="null"/>
-  <medium type="{medium}" name="interior">{sigma_t}<float name="albedo" value="0"/>{phase}</medium>
-</shape>
-</scene>"#
-        );
-        let loaded =
-            load_scene_str(&xml, Path::new("varying.xml"), &[]).unwrap_or_else(|e| panic!("{e}"));
-        let out = render(
-            &loaded.scene,
-            loaded.integrator.as_ref(),
-            &RenderSettings { spp: 4096, seed: 5 },
-            &|_| {},
-        );
-        let (mean, se) = common::pixel_mean_and_error(&out.image.data, 0);
+        let (mean, se) = transmittance_through_cube(medium, &phase, "-0.5, 0.3, -5", "0.1, 0, 1");
         assert!(
             (mean - want).abs() < 4.0 * se,
             "{medium}: {mean} ± {se}, want {want}"

@@ -104,7 +104,7 @@
 //! refraction; NOAA's calculator adds ~0.02° at 35° elevation, ~0.1° at
 //! 10°).
 
-use super::sky_sampling::{sky_pdf, sky_sample, sky_table, SunDisk};
+use super::sky_sampling::{sky_light_sample, sky_pdf, sky_table, SunDisk};
 use super::{EmitterContext, EmitterModel, EmitterSample};
 use crate::params::{ParamError, Params};
 use crate::sampling::Distribution2D;
@@ -564,18 +564,9 @@ impl EmitterModel for PreethamLight {
             return None;
         }
         let dist = &ctx.distributions[self.distribution as usize];
-        let local = sky_sample(dist, &self.disk(), self.sun_prob, u)?;
-        let wi = (self.world_from_light * local).normalize();
-        // As in `envmap`: radiance and density of the direction as a traced
-        // ray would find them.
-        let local = (self.light_from_world * wi).normalize_or_zero();
-        let pdf = self.pdf_local(dist, local);
-        (pdf > 0.0).then(|| EmitterSample {
-            wi,
-            dist: f32::INFINITY,
-            pdf,
-            radiance: self.radiance_local(local),
-            is_delta: false,
+        let frames = (self.world_from_light, self.light_from_world);
+        sky_light_sample(dist, &self.disk(), self.sun_prob, frames, u, |d| {
+            self.radiance_local(d)
         })
     }
 

@@ -9,12 +9,12 @@
 //! excess's: BSDF sampling covers the even part of the sky, light
 //! sampling the sun and the bright sky around it.
 
-use super::latlong;
+use super::{latlong, EmitterSample};
 use crate::math::Frame;
 use crate::sampling::{square_to_uniform_cone, uniform_cone_pdf, Distribution2D};
 use crate::spectrum::luminance;
 use crate::Rgb;
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
 
 /// Sky sampling table (latitude–longitude cells).
@@ -125,4 +125,29 @@ pub fn sky_sample(dist: &Distribution2D, sun: &SunDisk, sun_prob: f32, u: Vec2) 
         }
         Some(latlong::direction_of(uv))
     }
+}
+
+/// A light sample of a sky whose frame is `world_from_light` (inverse
+/// `light_from_world`): a direction by [`sky_sample`], with the radiance
+/// (`radiance` of the sky-frame direction) and density a traced ray along
+/// it finds, as `envmap`'s.
+pub fn sky_light_sample(
+    dist: &Distribution2D,
+    sun: &SunDisk,
+    sun_prob: f32,
+    (world_from_light, light_from_world): (Mat3, Mat3),
+    u: Vec2,
+    radiance: impl Fn(Vec3) -> Rgb,
+) -> Option<EmitterSample> {
+    let local = sky_sample(dist, sun, sun_prob, u)?;
+    let wi = (world_from_light * local).normalize();
+    let local = (light_from_world * wi).normalize_or_zero();
+    let pdf = sky_pdf(dist, sun, sun_prob, local);
+    (pdf > 0.0).then(|| EmitterSample {
+        wi,
+        dist: f32::INFINITY,
+        pdf,
+        radiance: radiance(local),
+        is_delta: false,
+    })
 }

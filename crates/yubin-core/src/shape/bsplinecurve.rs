@@ -40,7 +40,7 @@
 //! Reference: Mitsuba 3 documentation, "B-spline curve (bsplinecurve)";
 //! Embree's round B-spline curves.
 
-use super::linearcurve::{enter, parse_curve_file, Segment};
+use super::linearcurve::{curve_points, enter, turn_around, Segment};
 use super::{make_interaction_in_frame, PositionSample, PrimHit, ShapeModel, TriangleMesh};
 use crate::interaction::SurfaceInteraction;
 use crate::math::{Bounds3, Frame, Ray};
@@ -75,21 +75,9 @@ pub struct BSplineCurve {
 impl BSplineCurve {
     /// The shape from its scene parameters.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
-        let Some(bytes) = p.file_bytes("filename")? else {
-            return Err(p.error("needs a \"filename\": a text file of control points"));
-        };
-        let file = p.string("filename")?.unwrap_or_default();
-        let text = String::from_utf8_lossy(&bytes);
-        let curves = parse_curve_file(&text, 4, "B-spline")
-            .map_err(|e| p.param_error("filename", &format!("{file}: {e}")))?;
-        let to_world = p.transform_or_identity("to_world")?;
-        let placed = |q: Vec4| to_world.point(q.truncate()).extend(q.w);
-        let segments = curves
+        let segments = curve_points(p, 4, "B-spline")?
             .iter()
-            .flat_map(|c| {
-                c.windows(4)
-                    .map(|w| [placed(w[0]), placed(w[1]), placed(w[2]), placed(w[3])])
-            })
+            .flat_map(|c| c.windows(4).map(|w| [w[0], w[1], w[2], w[3]]))
             .collect();
         Ok(Self {
             data: BSplineData { segments }.interned(),
@@ -232,16 +220,8 @@ impl ShapeModel for BSplineCurve {
         let n = tube_normal(q, v, p).try_normalize().unwrap_or(-ray.d);
         let tangent = dc.truncate().normalize_or_zero();
         let rho = (p - c.truncate()).normalize_or_zero();
-        let up = Vec3::Z - tangent * tangent.z;
-        let u_rot = if tangent.z.abs() == 1.0 || up.length_squared() == 0.0 {
-            Vec3::Y
-        } else {
-            up.normalize()
-        };
-        let u_rad = u_rot.cross(tangent);
-        let turn = rho.dot(u_rot).atan2(rho.dot(u_rad)) / std::f32::consts::TAU;
         let segments = self.data.segments.len() as f32;
-        let uv = Vec2::new(turn - turn.floor(), (prim as f32 + v) / segments);
+        let uv = Vec2::new(turn_around(tangent, rho), (prim as f32 + v) / segments);
         let dpdu = tangent.cross(rho) * (std::f32::consts::TAU * c.w);
         let dpdv = dc.truncate() * segments;
         let frame = Frame::from_normal_and_tangent(n, dpdu);

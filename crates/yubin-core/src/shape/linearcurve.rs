@@ -140,28 +140,55 @@ pub struct LinearCurve {
 impl LinearCurve {
     /// The shape from its scene parameters.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
-        let Some(bytes) = p.file_bytes("filename")? else {
-            return Err(p.error("needs a \"filename\": a text file of control points"));
-        };
-        let file = p.string("filename")?.unwrap_or_default();
-        let text = String::from_utf8_lossy(&bytes);
-        let curves = parse_curve_file(&text, 2, "linear")
-            .map_err(|e| p.param_error("filename", &format!("{file}: {e}")))?;
-        let to_world = p.transform_or_identity("to_world")?;
-        let placed = |q: Vec4| to_world.point(q.truncate()).extend(q.w);
-        let segments = curves
+        let segments = curve_points(p, 2, "linear")?
             .iter()
-            .flat_map(|c| {
-                c.windows(2).map(|w| Segment {
-                    a: placed(w[0]),
-                    b: placed(w[1]),
-                })
-            })
+            .flat_map(|c| c.windows(2).map(|w| Segment { a: w[0], b: w[1] }))
             .collect();
         Ok(Self {
             data: LinearCurveData { segments }.interned(),
         })
     }
+}
+
+/// The curves of a curve shape's file (`filename`, each of at least
+/// `min_points` points), placed by its `to_world` (radii unchanged).
+pub(super) fn curve_points(
+    p: &mut dyn Params,
+    min_points: usize,
+    kind: &str,
+) -> Result<Vec<Vec<Vec4>>, ParamError> {
+    let Some(bytes) = p.file_bytes("filename")? else {
+        return Err(p.error("needs a \"filename\": a text file of control points"));
+    };
+    let file = p.string("filename")?.unwrap_or_default();
+    let text = String::from_utf8_lossy(&bytes);
+    let curves = parse_curve_file(&text, min_points, kind)
+        .map_err(|e| p.param_error("filename", &format!("{file}: {e}")))?;
+    let to_world = p.transform_or_identity("to_world")?;
+    Ok(curves
+        .into_iter()
+        .map(|c| {
+            c.into_iter()
+                .map(|q| to_world.point(q.truncate()).extend(q.w))
+                .collect()
+        })
+        .collect())
+}
+
+/// Where the unit vector `rho` (from the fibre's axis) points round a
+/// fibre of direction `tangent`, in turns from 0 to 1: 0 towards
+/// T̂ × û, ¼ towards û, û world +z made perpendicular to T̂ (+y for a
+/// vertical fibre), as Mitsuba measures it.
+pub(super) fn turn_around(tangent: Vec3, rho: Vec3) -> f32 {
+    let up = Vec3::Z - tangent * tangent.z;
+    let u_rot = if tangent.z.abs() == 1.0 || up.length_squared() == 0.0 {
+        Vec3::Y
+    } else {
+        up.normalize()
+    };
+    let u_rad = u_rot.cross(tangent);
+    let turn = rho.dot(u_rot).atan2(rho.dot(u_rad)) / std::f32::consts::TAU;
+    turn - turn.floor()
 }
 
 /// A segment's cone in the plane of its axis: the axis, its length, the
@@ -318,16 +345,8 @@ impl ShapeModel for LinearCurve {
         let centre = s.a.truncate().lerp(s.b.truncate(), v);
         let n = (p - centre).try_normalize().unwrap_or(-ray.d);
         let tangent = (s.b.truncate() - s.a.truncate()).normalize_or_zero();
-        let up = Vec3::Z - tangent * tangent.z;
-        let u_rot = if tangent.z.abs() == 1.0 || up.length_squared() == 0.0 {
-            Vec3::Y
-        } else {
-            up.normalize()
-        };
-        let u_rad = u_rot.cross(tangent);
-        let turn = n.dot(u_rot).atan2(n.dot(u_rad)) / std::f32::consts::TAU;
         let uv = Vec2::new(
-            turn - turn.floor(),
+            turn_around(tangent, n),
             (prim as f32 + v) / self.data.segments.len() as f32,
         );
         let frame = Frame::from_normal(n);
