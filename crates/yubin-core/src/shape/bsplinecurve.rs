@@ -25,7 +25,8 @@
 //!
 //! **Intersection.** Each segment is split into 8 pieces, each bounded by
 //! the rounded cone between its end circles widened by the piece's
-//! departure from its chord; where the ray enters one, Newton's method on
+//! departure from its chord (computed once, as the file loads; a ray first
+//! tests the sphere around each); where the ray enters one, Newton's method on
 //! (t, v) solves (o + t d − c(v))·c′(v) = 0, |o + t d − c(v)|² = r(v)², and
 //! the nearest converged solution with v in [0, 1] where the ray enters
 //! (d·n < 0) is the hit. The normal is the tube's:
@@ -55,6 +56,8 @@ const PIECES: usize = 8;
 pub struct BSplineData {
     /// Every segment of every curve.
     pub segments: Vec<[Vec4; 4]>,
+    /// Each segment's bounding rounded cones (see [`piece_hulls`]).
+    pub hulls: Vec<[Segment; PIECES]>,
 }
 
 impl BSplineData {
@@ -75,12 +78,13 @@ pub struct BSplineCurve {
 impl BSplineCurve {
     /// The shape from its scene parameters.
     pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
-        let segments = curve_points(p, 4, "B-spline")?
+        let segments: Vec<[Vec4; 4]> = curve_points(p, 4, "B-spline")?
             .iter()
             .flat_map(|c| c.windows(4).map(|w| [w[0], w[1], w[2], w[3]]))
             .collect();
+        let hulls = segments.iter().map(piece_hulls).collect();
         Ok(Self {
-            data: BSplineData { segments }.interned(),
+            data: BSplineData { segments, hulls }.interned(),
         })
     }
 }
@@ -148,26 +152,52 @@ fn refine(q: &[Vec4; 4], o: Vec3, d: Vec3, mut t: f32, mut v: f32) -> Option<(f3
     (on_circle && perpendicular && t.is_finite()).then_some((t, v))
 }
 
-/// Where the ray `o + t d` enters segment `q`, and v there.
-fn enter_segment(q: &[Vec4; 4], o: Vec3, d: Vec3, t_min: f32) -> Option<(f32, f32)> {
-    let mut best: Option<(f32, f32)> = None;
-    let mut previous = evaluate(q, 0.0).0;
-    for k in 0..PIECES {
+/// Whether the ray's line passes outside the sphere around `hull` (a cheap
+/// test before the rounded cone's).
+#[inline]
+fn misses_bounding_sphere(hull: &Segment, o: Vec3, d: Vec3) -> bool {
+    let (a, b) = (hull.a.truncate(), hull.b.truncate());
+    let centre = (a + b) * 0.5;
+    let radius = 0.5 * (b - a).length() + hull.a.w.max(hull.b.w);
+    (centre - o).cross(d).length_squared() > radius * radius * d.length_squared()
+}
+
+/// The rounded cones bounding segment `q`'s 8 pieces: between the
+/// circles at their ends, widened by the piece's departure from its chord
+/// (at its middle) and 5 % of its radius.
+fn piece_hulls(q: &[Vec4; 4]) -> [Segment; PIECES] {
+    std::array::from_fn(|k| {
         let (va, vb) = (k as f32 / PIECES as f32, (k + 1) as f32 / PIECES as f32);
-        let next = evaluate(q, vb).0;
-        // The piece's departure from its chord, at its middle.
+        let (start, end) = (evaluate(q, va).0, evaluate(q, vb).0);
         let middle = evaluate(q, 0.5 * (va + vb)).0;
-        let sag = (middle - (previous + next) * 0.5).truncate().length();
-        let grow = sag + 0.05 * previous.w.abs().max(next.w.abs());
-        let hull = Segment {
-            a: previous.truncate().extend(previous.w.abs() + grow),
-            b: next.truncate().extend(next.w.abs() + grow),
-        };
-        previous = next;
-        let Some((t0, v_local)) = enter(&hull, o, d) else {
+        let sag = (middle - (start + end) * 0.5).truncate().length();
+        let grow = sag + 0.05 * start.w.abs().max(end.w.abs());
+        Segment {
+            a: start.truncate().extend(start.w.abs() + grow),
+            b: end.truncate().extend(end.w.abs() + grow),
+        }
+    })
+}
+
+/// Where the ray `o + t d` enters segment `q` (bounded by `hulls`), and v
+/// there.
+fn enter_segment(
+    q: &[Vec4; 4],
+    hulls: &[Segment; PIECES],
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+) -> Option<(f32, f32)> {
+    let mut best: Option<(f32, f32)> = None;
+    for (k, hull) in hulls.iter().enumerate() {
+        if misses_bounding_sphere(hull, o, d) {
+            continue;
+        }
+        let Some((t0, v_local)) = enter(hull, o, d) else {
             continue;
         };
-        let Some((t, v)) = refine(q, o, d, t0, va + v_local * (vb - va)) else {
+        let va = k as f32 / PIECES as f32;
+        let Some((t, v)) = refine(q, o, d, t0, va + v_local / PIECES as f32) else {
             continue;
         };
         if !(0.0..=1.0).contains(&v) || t <= t_min || best.is_some_and(|(b, _)| b <= t) {
@@ -198,8 +228,14 @@ impl ShapeModel for BSplineCurve {
 
     #[inline]
     fn intersect(&self, _: &[TriangleMesh], prim: u32, ray: &Ray) -> Option<PrimHit> {
-        let q = &self.data.segments[prim as usize];
-        let (t, v) = enter_segment(q, ray.o, ray.d, ray.t_min)?;
+        let i = prim as usize;
+        let (t, v) = enter_segment(
+            &self.data.segments[i],
+            &self.data.hulls[i],
+            ray.o,
+            ray.d,
+            ray.t_min,
+        )?;
         (t <= ray.t_max).then_some(PrimHit {
             t,
             uv: Vec2::new(v, 0.0),
@@ -251,6 +287,7 @@ mod tests {
             Vec4::new(-0.2, 0.4, 1.0, 0.5),
             Vec4::new(0.5, -0.2, 3.0, 0.2),
         ];
+        let hulls = piece_hulls(&q);
         let mut rng = crate::sampler::Pcg32::new(9, 2);
         let mut hits = 0;
         for _ in 0..3000 {
@@ -259,7 +296,7 @@ mod tests {
             let aim = evaluate(&q, v).0.truncate()
                 + crate::sampling::square_to_uniform_sphere(rng.next_2d()) * 0.5;
             let o = aim - dir * 5.0;
-            if let Some((t, v)) = enter_segment(&q, o, dir, 0.0) {
+            if let Some((t, v)) = enter_segment(&q, &hulls, o, dir, 0.0) {
                 hits += 1;
                 let p = o + dir * t;
                 let (c, dc, _) = evaluate(&q, v);
@@ -279,10 +316,17 @@ mod tests {
         assert!(hits > 1000, "{hits}");
         let inside = evaluate(&q, 0.5).0.truncate();
         for d in [Vec3::X, Vec3::Y, Vec3::Z, Vec3::NEG_Z] {
-            assert!(enter_segment(&q, inside, d, 0.0).is_none());
+            assert!(enter_segment(&q, &hulls, inside, d, 0.0).is_none());
         }
         // The curve starts at (P0 + 4 P1 + P2)/6: nothing beyond it.
         let start = evaluate(&q, 0.0).0.truncate();
-        assert!(enter_segment(&q, start + Vec3::new(5.0, 0.0, -0.3), Vec3::NEG_X, 0.0).is_none());
+        assert!(enter_segment(
+            &q,
+            &hulls,
+            start + Vec3::new(5.0, 0.0, -0.3),
+            Vec3::NEG_X,
+            0.0
+        )
+        .is_none());
     }
 }
