@@ -474,7 +474,7 @@ impl Table2D {
 
     /// The slices around parameters `p` and their weights (at most 8).
     #[inline]
-    fn corners(&self, p: &[f32]) -> ([usize; 8], [f32; 8], usize) {
+    fn corners(&self, p: &[f32]) -> Corners {
         let (mut slices, mut weights, mut n) = ([0usize; 8], [0f32; 8], 1usize);
         weights[0] = 1.0;
         for (nodes, &value) in self.params.iter().zip(p) {
@@ -497,14 +497,7 @@ impl Table2D {
             }
             n *= 2;
         }
-        (slices, weights, n)
-    }
-
-    /// Σ weight × `f(slice)` over the corners of `p`.
-    #[inline]
-    fn blend(&self, p: &[f32], f: impl Fn(usize) -> f32) -> f32 {
-        let (slices, weights, n) = self.corners(p);
-        (0..n).map(|k| weights[k] * f(slices[k])).sum()
+        Corners { slices, weights, n }
     }
 
     #[inline]
@@ -541,8 +534,9 @@ impl Table2D {
     /// The bilinear value at `pos`.
     #[inline]
     fn eval(&self, pos: Vec2, p: &[f32]) -> f32 {
+        let at_p = self.corners(p);
         let (ix, iy, fx, fy) = self.cell(pos);
-        self.blend(p, |s| {
+        at_p.blend(|s| {
             let row = |y| lerp(self.at(s, ix, y), self.at(s, ix + 1, y), fx);
             lerp(row(iy), row(iy + 1), fy)
         })
@@ -551,14 +545,15 @@ impl Table2D {
     /// The warp's sample point for `pos` (the inverse of
     /// [`Table2D::sample`]) and the density there.
     fn invert(&self, pos: Vec2, p: &[f32]) -> (Vec2, f32) {
+        let at_p = self.corners(p);
         let (ix, iy, fx, fy) = self.cell(pos);
-        let v = |x, y| self.blend(p, |s| self.at(s, x, y));
+        let v = |x, y| at_p.blend(|s| self.at(s, x, y));
         let c0 = lerp(v(ix, iy), v(ix, iy + 1), fy);
         let c1 = lerp(v(ix + 1, iy), v(ix + 1, iy + 1), fy);
         let density = lerp(c0, c1, fx);
         let mut x = fx * lerp(c0, c1, 0.5 * fx) / (self.width - 1) as f32;
         if ix > 0 {
-            x += self.blend(p, |s| {
+            x += at_p.blend(|s| {
                 lerp(
                     self.cond_at(s, ix - 1, iy),
                     self.cond_at(s, ix - 1, iy + 1),
@@ -566,12 +561,12 @@ impl Table2D {
                 )
             });
         }
-        let rows = |y| self.blend(p, |s| self.row_total(s, y));
+        let rows = |y| at_p.blend(|s| self.row_total(s, y));
         let (r0, r1) = (rows(iy), rows(iy + 1));
         x /= lerp(r0, r1, fy);
         let mut y = fy * lerp(r0, r1, 0.5 * fy) / (self.height - 1) as f32;
         if iy > 0 {
-            y += self.blend(p, |s| self.marg_at(s, iy - 1));
+            y += at_p.blend(|s| self.marg_at(s, iy - 1));
         }
         (Vec2::new(x, y), density)
     }
@@ -579,28 +574,26 @@ impl Table2D {
     /// The warp of the uniform point `u`: a point distributed by the
     /// table, and its density.
     fn sample(&self, u: Vec2, p: &[f32]) -> (Vec2, f32) {
+        let at_p = self.corners(p);
         const EPS: f32 = 1.0 / (1u32 << 24) as f32;
         let (mut ux, mut uy) = (u.x.clamp(EPS, 1.0 - EPS), u.y.clamp(EPS, 1.0 - EPS));
         let (w, h) = (self.width, self.height);
-        let marg = |y: usize| self.blend(p, |s| self.marg_at(s, y));
+        let marg = |y: usize| at_p.blend(|s| self.marg_at(s, y));
         let r = first_at_least(h - 1, uy, marg);
         if r > 0 {
             uy -= marg(r - 1);
         }
-        let rows = |y| self.blend(p, |s| self.row_total(s, y));
+        let rows = |y| at_p.blend(|s| self.row_total(s, y));
         let (r0, r1) = (rows(r), rows(r + 1));
         let ty = segment(uy, h - 1, r0, r1);
         ux *= lerp(r0, r1, ty);
-        let cond = |x: usize| {
-            self.blend(p, |s| {
-                lerp(self.cond_at(s, x, r), self.cond_at(s, x, r + 1), ty)
-            })
-        };
+        let cond =
+            |x: usize| at_p.blend(|s| lerp(self.cond_at(s, x, r), self.cond_at(s, x, r + 1), ty));
         let c = first_at_least(w - 1, ux, cond);
         if c > 0 {
             ux -= cond(c - 1);
         }
-        let v = |x| self.blend(p, |s| lerp(self.at(s, x, r), self.at(s, x, r + 1), ty));
+        let v = |x| at_p.blend(|s| lerp(self.at(s, x, r), self.at(s, x, r + 1), ty));
         let (c0, c1) = (v(c), v(c + 1));
         let tx = segment(ux, w - 1, c0, c1);
         (
@@ -648,6 +641,24 @@ fn segment(s: f32, n: usize, a: f32, b: f32) -> f32 {
         s2
     };
     t.clamp(0.0, 1.0)
+}
+
+/// The table's slices around a parameter point, and their weights: a
+/// lookup reads each slice and blends.
+struct Corners {
+    slices: [usize; 8],
+    weights: [f32; 8],
+    n: usize,
+}
+
+impl Corners {
+    /// Σ weight × `f(slice)`.
+    #[inline]
+    fn blend(&self, f: impl Fn(usize) -> f32) -> f32 {
+        (0..self.n)
+            .map(|k| self.weights[k] * f(self.slices[k]))
+            .sum()
+    }
 }
 
 /// A tensor file's element types.

@@ -386,16 +386,8 @@ impl PreethamLight {
                 &format!("must be between 1.7 and 10, not {turbidity}"),
             ));
         }
-        let non_negative = |p: &mut dyn Params, name: &str| -> Result<f32, ParamError> {
-            let v = p.float_or(name, 1.0)?;
-            if v >= 0.0 && v.is_finite() {
-                Ok(v)
-            } else {
-                Err(p.param_error(name, &format!("must be finite and ≥ 0, not {v}")))
-            }
-        };
-        let sun_scale = non_negative(p, "sun_scale")?;
-        let sky_scale = non_negative(p, "sky_scale")?;
+        let sun_scale = p.non_negative_float_or("sun_scale", 1.0)?;
+        let sky_scale = p.non_negative_float_or("sky_scale", 1.0)?;
         let sun_radius = p.float_or("sun_radius", SUN_RADIUS_DEG as f32)?;
         if !(sun_radius > 0.0 && sun_radius <= 20.0) {
             return Err(p.param_error(

@@ -353,16 +353,8 @@ impl SunskyLight {
         if !(albedo.cmpge(Rgb::ZERO).all() && albedo.cmple(Rgb::ONE).all()) {
             return Err(p.param_error("albedo", &format!("must be in [0, 1], not {albedo}")));
         }
-        let non_negative = |p: &mut dyn Params, name: &str| -> Result<f32, ParamError> {
-            let v = p.float_or(name, 1.0)?;
-            if v >= 0.0 && v.is_finite() {
-                Ok(v)
-            } else {
-                Err(p.param_error(name, &format!("must be finite and ≥ 0, not {v}")))
-            }
-        };
-        let sun_scale = non_negative(p, "sun_scale")?;
-        let sky_scale = non_negative(p, "sky_scale")?;
+        let sun_scale = p.non_negative_float_or("sun_scale", 1.0)?;
+        let sky_scale = p.non_negative_float_or("sky_scale", 1.0)?;
         let aperture = p.float_or("sun_aperture", 2.0 * DEFAULT_HALF_APERTURE_DEG)?;
         if !(aperture > 0.0 && aperture < 180.0) {
             return Err(p.param_error(

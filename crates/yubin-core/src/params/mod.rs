@@ -323,6 +323,16 @@ pub trait Params {
         }
     }
 
+    /// A float that must be finite and 0 or more (a scale factor).
+    fn non_negative_float_or(&mut self, name: &str, default: f32) -> Result<f32, ParamError> {
+        let v = self.float_or(name, default)?;
+        if v >= 0.0 && v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.param_error(name, &format!("must be finite and ≥ 0, not {v}")))
+        }
+    }
+
     /// A positive integer, `default` when absent.
     fn positive_integer_or(&mut self, name: &str, default: i64) -> Result<u32, ParamError> {
         let v = self.integer_or(name, default)?;
