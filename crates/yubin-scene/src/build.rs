@@ -350,6 +350,7 @@ impl Builder<'_> {
             .map_err(|e| obj.error(e.to_string()))?;
         self.sb
             .camera(sensor.camera)
+            .shutter(sensor.shutter)
             .film(sensor.film)
             .sampler(sensor.sampler);
         Ok(sensor.seed)

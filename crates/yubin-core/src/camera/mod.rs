@@ -78,12 +78,70 @@ fn focus_or_target(p: &mut dyn Params, rigid: glam::Affine3A) -> Result<f32, Par
     }
 }
 
-/// What a `<sensor>` holds: its camera, its film and its sampler, with the
-/// sampler's seed.
+/// When a sensor's shutter is open (`shutter_open`, `shutter_close`; both
+/// 0 by default, as in Mitsuba 3): each camera sample is taken at a time
+/// drawn uniformly in between. Nothing in a scene moves yet; the time
+/// reaches the emitters that change with it (`timed_sunsky`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shutter {
+    /// Opening time.
+    pub open: f32,
+    /// Closing time (not before `open`).
+    pub close: f32,
+}
+
+impl Shutter {
+    /// A shutter open at time 0 only.
+    pub const INSTANT: Self = Self {
+        open: 0.0,
+        close: 0.0,
+    };
+
+    /// From a sensor's `shutter_open` and `shutter_close`.
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let open = p.float_or("shutter_open", 0.0)?;
+        let close = p.float_or("shutter_close", 0.0)?;
+        for (name, v) in [("shutter_open", open), ("shutter_close", close)] {
+            if !v.is_finite() {
+                return Err(p.param_error(name, &format!("must be a number, not {v}")));
+            }
+        }
+        if close < open {
+            return Err(p.param_error(
+                "shutter_close",
+                &format!("the shutter closes ({close}) before it opens ({open})"),
+            ));
+        }
+        Ok(Self { open, close })
+    }
+
+    /// Whether samples are taken over an interval (not at one instant).
+    #[inline]
+    pub fn is_open(&self) -> bool {
+        self.close > self.open
+    }
+
+    /// The time of the uniform sample `u` in [0, 1).
+    #[inline]
+    pub fn time(&self, u: f32) -> f32 {
+        self.open + (self.close - self.open) * u
+    }
+}
+
+impl Default for Shutter {
+    fn default() -> Self {
+        Self::INSTANT
+    }
+}
+
+/// What a `<sensor>` holds: its camera, its shutter, its film and its
+/// sampler, with the sampler's seed.
 #[derive(Clone, Copy, Debug)]
 pub struct Sensor {
     /// The camera.
     pub camera: Camera,
+    /// When its samples are taken.
+    pub shutter: Shutter,
     /// The film (its size, crop window and filter).
     pub film: Film,
     /// The sampler.
@@ -106,9 +164,11 @@ impl Sensor {
             Some(mut s) => Sampler::from_params(s.as_mut())?,
             None => (Sampler::default(), 0),
         };
+        let shutter = Shutter::from_params(p)?;
         let camera = build(p, [film.width, film.height])?;
         Ok(Self {
             camera,
+            shutter,
             film,
             sampler,
             seed,

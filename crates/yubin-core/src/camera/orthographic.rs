@@ -52,7 +52,6 @@ impl Orthographic {
             ));
         }
         let to_world = p.transform_or_identity("to_world")?.m;
-        p.warn_ignored(&["shutter_open", "shutter_close"], "no motion blur yet");
         Ok(Self::new(to_world, size[0], size[1], near, far))
     }
 

@@ -10,6 +10,7 @@
 //! | `to_world`  | transform | identity| camera to world; the camera looks down +z, +y is up     |
 //! | `focus_distance` | float | —     | accepted as Mitsuba does; a pinhole has no focus, so it has no effect |
 //! | `principal_point_offset_x`, `_y` | float | 0 | shift of the image centre, in fractions of the film's width and height (Mitsuba's) |
+//! | `shutter_open`, `shutter_close` | float | 0, 0 | (every sensor) each sample is taken at a time drawn uniformly in between; nothing in a scene moves, but emitters that change with time (`timed_sunsky`) show that time |
 //!
 //! ```xml
 //! <sensor type="perspective">
@@ -78,7 +79,6 @@ impl Perspective {
             return Err(p.error("principal_point_offset_x/_y must be finite"));
         }
         let rigid = rigid_to_world(p)?;
-        p.warn_ignored(&["shutter_open", "shutter_close"], "no motion blur yet");
         Ok(Self::new(rigid, fov, fov_axis, size[0], size[1], near, far)
             .with_principal_point(principal_point))
     }

@@ -82,7 +82,6 @@ pub fn from_params(p: &mut dyn Params, size: [u32; 2]) -> Result<Perspective, Pa
     let (near, far) = clip_planes(p)?;
     let rigid = rigid_to_world(p)?;
     let focus = focus_or_target(p, rigid)?;
-    p.warn_ignored(&["shutter_open", "shutter_close"], "no motion blur yet");
     let mm = 0.001 / scene_unit;
     let (fov, axis) = fov_of_sensor(sensor_w, sensor_h, focal, size);
     let lens = Aperture {

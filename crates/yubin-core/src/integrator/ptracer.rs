@@ -185,6 +185,7 @@ impl ParticleTracer {
             crop_size: Vec2::new(crop[0] as f32, crop[1] as f32),
             reach: scene.film.filter.radius() + 1.0,
         };
+        let timed = scene.samples_times();
         for i in paths {
             // Path i takes the sample stream of a pixel and sample index,
             // as a camera path would: a pure function of (i, seed).
@@ -194,6 +195,11 @@ impl ParticleTracer {
             let mut stream = scene
                 .sampler
                 .stream(x + offset[0], y + offset[1], index, seed);
+            let scene = &if timed {
+                scene.at_time(scene.shutter.time(stream.next_1d()))
+            } else {
+                *scene
+            };
             if !self.hide_emitters {
                 self.splat_visible_emitter(scene, &mut stream, &mut out);
             }

@@ -108,7 +108,8 @@ impl Emitter {
             Emitter::Constant(_)
             | Emitter::EnvMap(_)
             | Emitter::Preetham(_)
-            | Emitter::Sunsky(_) => {
+            | Emitter::Sunsky(_)
+            | Emitter::TimedSunsky(_) => {
                 let s = self.sample_direction(ctx, sphere.center, u_dir)?;
                 if s.pdf.is_nan() || s.pdf <= 0.0 {
                     return None;

@@ -32,6 +32,7 @@ pub mod selection;
 pub mod sky_sampling;
 mod spot;
 mod sunsky;
+mod timed_sunsky;
 
 pub use area::AreaLight;
 pub use constant::ConstantLight;
@@ -45,6 +46,7 @@ pub use projector::ProjectorLight;
 pub use selection::{EmitterOptions, LightChoice, LightSampler, LightSelection};
 pub use spot::SpotLight;
 pub use sunsky::SunskyLight;
+pub use timed_sunsky::TimedSunskyLight;
 
 use crate::interaction::SurfaceInteraction;
 use crate::params::{ParamError, Params};
@@ -69,6 +71,9 @@ pub struct EmitterContext<'a> {
     /// Sampling distributions of emitters, which the render's state holds
     /// ([`build_distributions`]).
     pub distributions: &'a [Distribution2D],
+    /// The camera sample's time (what emitters that change with time
+    /// show).
+    pub time: f32,
 }
 
 impl EmitterContext<'static> {
@@ -79,6 +84,7 @@ impl EmitterContext<'static> {
         images: &[],
         materials: &crate::material::Materials::EMPTY,
         distributions: &[],
+        time: 0.0,
     };
 }
 
@@ -133,6 +139,8 @@ pub enum Emitter {
     DirectionalArea(DirectionalAreaLight),
     /// `sunsky`.
     Sunsky(SunskyLight),
+    /// `timed_sunsky`.
+    TimedSunsky(TimedSunskyLight),
 }
 
 /// Builds an emitter plugin from its parameters.
@@ -160,6 +168,9 @@ pub const PLUGINS: &[(&str, EmitterFromParams)] = &[
     }),
     ("sunsky", |p| {
         Ok(Emitter::Sunsky(SunskyLight::from_params(p)?))
+    }),
+    ("timed_sunsky", |p| {
+        Ok(Emitter::TimedSunsky(TimedSunskyLight::from_params(p)?))
     }),
 ];
 
@@ -239,11 +250,13 @@ pub fn prepare_emitters(
 /// [`prepare_emitters`] checked) at its own. `compensated[i]`: emitter `i`
 /// may leave to BSDF sampling what it finds well (an `envmap` that does
 /// not turn that off, and `preetham`'s sky, then sample their excess over
-/// their mean).
+/// their mean). An emitter that changes with time samples what it shows
+/// on average while the sensor's `shutter` is open.
 pub fn build_distributions(
     emitters: &mut [Emitter],
     materials: &crate::material::Materials,
     compensated: &[bool],
+    shutter: crate::camera::Shutter,
 ) -> Vec<Distribution2D> {
     let images = &materials.images;
     let mut distributions = Vec::new();
@@ -266,6 +279,11 @@ pub fn build_distributions(
             sky.distribution = distributions.len() as u32;
             distributions.push(sky.sampling_distribution(allowed));
         }
+        if let Emitter::TimedSunsky(sky) = e {
+            let table = sky.sampling_distribution(allowed, shutter);
+            sky.set_distribution(distributions.len() as u32);
+            distributions.push(table);
+        }
     }
     distributions
 }
@@ -283,6 +301,7 @@ macro_rules! dispatch {
             Emitter::Projector($l) => $e,
             Emitter::DirectionalArea($l) => $e,
             Emitter::Sunsky($l) => $e,
+            Emitter::TimedSunsky($l) => $e,
         }
     };
 }
@@ -327,6 +346,7 @@ impl Emitter {
             Emitter::EnvMap(m) => m.radiance(ctx, d),
             Emitter::Preetham(s) => s.radiance(d),
             Emitter::Sunsky(s) => s.radiance(d),
+            Emitter::TimedSunsky(s) => s.at(ctx.time).radiance(d),
             _ => Rgb::ZERO,
         }
     }
@@ -379,6 +399,7 @@ impl Emitter {
             Emitter::Sunsky(s) => {
                 disk * (self.environment_integral(ctx) + s.sun_power_for_selection())
             }
+            Emitter::TimedSunsky(s) => disk * s.mean_power(),
         }
     }
 
@@ -404,8 +425,18 @@ impl Emitter {
     pub fn is_environment(&self) -> bool {
         matches!(
             self,
-            Emitter::Constant(_) | Emitter::EnvMap(_) | Emitter::Preetham(_) | Emitter::Sunsky(_)
+            Emitter::Constant(_)
+                | Emitter::EnvMap(_)
+                | Emitter::Preetham(_)
+                | Emitter::Sunsky(_)
+                | Emitter::TimedSunsky(_)
         )
+    }
+
+    /// True for lights that show something else at another time of the
+    /// shutter (`timed_sunsky`).
+    pub fn changes_with_time(&self) -> bool {
+        matches!(self, Emitter::TimedSunsky(_))
     }
 }
 
@@ -442,6 +473,10 @@ pub(crate) mod tests {
         /// Its [`Emitter::power`] is exact (not a quadrature over an
         /// environment), so the mean emission weight must equal it.
         pub exact_power: bool,
+        /// The sensor's shutter its sampling tables are made for.
+        pub shutter: crate::camera::Shutter,
+        /// The time it is sampled at.
+        pub time: f32,
     }
 
     impl Variant {
@@ -459,6 +494,8 @@ pub(crate) mod tests {
                 chi2: Chi2Config::default(),
                 emission_pdf: None,
                 exact_power: true,
+                shutter: crate::camera::Shutter::INSTANT,
+                time: 0.0,
             }
         }
 
@@ -512,6 +549,7 @@ pub(crate) mod tests {
                 images: &self.materials.images,
                 materials: &self.materials,
                 distributions,
+                time: self.time,
             }
         }
 
@@ -572,6 +610,7 @@ pub(crate) mod tests {
             envmap::tests::test_variants(),
             preetham::tests::test_variants(),
             sunsky::tests::test_variants(),
+            timed_sunsky::tests::test_variants(),
         ]
         .into_iter()
         .flatten()
@@ -581,7 +620,7 @@ pub(crate) mod tests {
             .map(|v| {
                 let emitters = std::slice::from_mut(&mut v.emitter);
                 prepare_emitters(emitters, &v.materials).unwrap();
-                build_distributions(emitters, &v.materials, &[true])
+                build_distributions(emitters, &v.materials, &[true], v.shutter)
             })
             .collect();
         // Šidák's correction keeps the chance that any of the chi-square

@@ -339,9 +339,22 @@ fn sampling_of_sky(d: Vec3) -> Vec3 {
     Vec3::new(d.x, d.z, -d.y)
 }
 
-impl SunskyLight {
-    /// From its scene parameters (table in the module docs).
-    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+/// The parameters `sunsky` and `timed_sunsky` share: the atmosphere, the
+/// sun's size and the scales, and the sky's frame.
+pub(crate) struct SkyParams {
+    turbidity: f32,
+    albedo: Rgb,
+    sun_scale: f32,
+    sky_scale: f32,
+    aperture_deg: f32,
+    complex: bool,
+    /// The sky's frame to world (invertible).
+    pub(crate) to_world: DMat3,
+}
+
+impl SkyParams {
+    /// Reads and checks them.
+    pub(crate) fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
         let turbidity = p.float_or("turbidity", 3.0)?;
         if !(1.0..=10.0).contains(&turbidity) {
             return Err(p.param_error(
@@ -355,20 +368,110 @@ impl SunskyLight {
         }
         let sun_scale = p.non_negative_float_or("sun_scale", 1.0)?;
         let sky_scale = p.non_negative_float_or("sky_scale", 1.0)?;
-        let aperture = p.float_or("sun_aperture", 2.0 * DEFAULT_HALF_APERTURE_DEG)?;
-        if !(aperture > 0.0 && aperture < 180.0) {
+        let aperture_deg = p.float_or("sun_aperture", 2.0 * DEFAULT_HALF_APERTURE_DEG)?;
+        if !(aperture_deg > 0.0 && aperture_deg < 180.0) {
             return Err(p.param_error(
                 "sun_aperture",
-                &format!("the full angle must be in (0, 180) degrees, not {aperture}"),
+                &format!("the full angle must be in (0, 180) degrees, not {aperture_deg}"),
             ));
         }
         let complex = p.boolean_or("complex_sun", false)?;
         let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
-        let linear = DMat3::from_mat4(m);
-        let det = linear.determinant();
+        let to_world = DMat3::from_mat4(m);
+        let det = to_world.determinant();
         if !det.is_finite() || det.abs() < 1e-12 {
             return Err(p.param_error("to_world", "must be invertible"));
         }
+        Ok(Self {
+            turbidity,
+            albedo,
+            sun_scale,
+            sky_scale,
+            aperture_deg,
+            complex,
+            to_world,
+        })
+    }
+
+    /// What placing the sun again needs of them.
+    pub(crate) fn model(&self) -> SkyModel {
+        SunskyLight::model(
+            self.turbidity,
+            self.albedo,
+            self.sun_scale,
+            self.sky_scale,
+            self.aperture_deg,
+            self.complex,
+        )
+    }
+
+    /// The sky with the sun towards `sun` (the sky's frame, unit).
+    pub(crate) fn light(&self, sun: Vec3) -> SunskyLight {
+        SunskyLight::new(
+            self.turbidity,
+            self.albedo,
+            sun,
+            self.sun_scale,
+            self.sky_scale,
+            self.aperture_deg,
+            self.complex,
+            self.to_world.as_mat3(),
+        )
+    }
+}
+
+/// What a sky computes from its parameters alone, to place its sun again
+/// ([`SunskyLight::set_sun`], as `timed_sunsky` does at every time).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkyModel {
+    turbidity: f32,
+    albedo: Rgb,
+    /// `sky_scale` in Mitsuba's units.
+    sky_factor: f32,
+    /// A uniform sun's radiance per unit of its irradiance.
+    uniform_sun_factor: f32,
+    /// The limb-darkened sun, for `complex_sun`.
+    complex: Option<&'static ComplexSun>,
+}
+
+impl SkyModel {
+    /// The sky and the sun's radiance with the sun towards `sun` (the sky's
+    /// frame, unit).
+    pub fn placement(&self, sun: Vec3) -> SunPlacement {
+        let night = sun.z < 0.0;
+        let eta = FRAC_PI_2 - sun.z.clamp(-1.0, 1.0).acos();
+        let (coefficients, radiance) = sky_coefficients(self.turbidity, self.albedo, eta);
+        SunPlacement {
+            coefficients,
+            sky_radiance: if night {
+                Rgb::ZERO
+            } else {
+                Rgb::from(radiance) * self.sky_factor
+            },
+            sun: match self.complex {
+                _ if night => Sun::Uniform(Rgb::ZERO),
+                Some(complex) => Sun::Complex(complex),
+                None => Sun::Uniform(sun_irradiance(self.turbidity, eta) * self.uniform_sun_factor),
+            },
+            direction: sampling_of_sky(sun),
+        }
+    }
+}
+
+/// What changes in a [`SunskyLight`] when its sun moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SunPlacement {
+    coefficients: [[f32; 9]; 3],
+    sky_radiance: Rgb,
+    sun: Sun,
+    /// Towards the sun (sampling frame).
+    direction: Vec3,
+}
+
+impl SunskyLight {
+    /// From its scene parameters (table in the module docs).
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let sky = SkyParams::from_params(p)?;
         let sun = if let Some(d) = p.vector("sun_direction")? {
             if let Some(other) = PLACE_TIME.iter().find(|n| p.has(n)) {
                 return Err(p.param_error(
@@ -379,7 +482,7 @@ impl SunskyLight {
             let d = d
                 .try_normalize()
                 .ok_or_else(|| p.param_error("sun_direction", "must not be zero"))?;
-            (linear.inverse().as_mat3() * d).normalize()
+            (sky.to_world.inverse().as_mat3() * d).normalize()
         } else {
             sun_from_place_and_time(p)?
         };
@@ -389,17 +492,7 @@ impl SunskyLight {
                 "the sun is below the horizon: the sky and the sun are dark (as in Mitsuba)",
             );
         }
-        let light = Self::new(
-            turbidity,
-            albedo,
-            sun,
-            sun_scale,
-            sky_scale,
-            aperture,
-            complex,
-            linear.as_mat3(),
-        );
-        Ok(light)
+        Ok(sky.light(sun))
     }
 
     /// The sky with the sun towards `sun` (the sky's frame, unit).
@@ -414,44 +507,73 @@ impl SunskyLight {
         complex: bool,
         to_world: Mat3,
     ) -> Self {
-        let night = sun.z < 0.0;
-        let eta = FRAC_PI_2 - sun.z.clamp(-1.0, 1.0).acos();
-        let (coefficients, radiance) = sky_coefficients(turbidity, albedo, eta);
+        let model = Self::model(
+            turbidity,
+            albedo,
+            sun_scale,
+            sky_scale,
+            aperture_deg,
+            complex,
+        );
+        let half = (0.5 * aperture_deg).to_radians();
+        let to_sampling = Mat3::from_cols(Vec3::X, Vec3::NEG_Z, Vec3::Y);
+        let world_from_light = to_world * to_sampling.transpose();
+        let mut light = Self {
+            coefficients: [[0.0; 9]; 3],
+            sky_radiance: Rgb::ZERO,
+            disk: SunDisk {
+                direction: Vec3::Y,
+                cos_radius: half.cos(),
+            },
+            sin_half_aperture: half.sin(),
+            sun: Sun::Uniform(Rgb::ZERO),
+            sun_prob: 0.0,
+            distribution: u32::MAX,
+            light_from_world: world_from_light.inverse(),
+            world_from_light,
+        };
+        light.set_sun(&model, sun);
+        light
+    }
+
+    /// What [`SunskyLight::set_sun`] needs of the sky's parameters.
+    pub fn model(
+        turbidity: f32,
+        albedo: Rgb,
+        sun_scale: f32,
+        sky_scale: f32,
+        aperture_deg: f32,
+        complex: bool,
+    ) -> SkyModel {
         let half = (0.5 * aperture_deg).to_radians();
         // 1 − cos h in single precision, as Mitsuba computes it.
         let one_minus_cos = 1.0 - half.cos();
         let one_minus_cos_default = 1.0 - DEFAULT_HALF_APERTURE_DEG.to_radians().cos();
         let scale = sun_scale * SUN_SPECTRUM_TO_RGB * Y_NORMALIZATION;
-        let sun_radiance = if night {
-            Sun::Uniform(Rgb::ZERO)
-        } else if complex {
-            Sun::Complex(
-                ComplexSun::new(turbidity, scale * one_minus_cos_default / one_minus_cos)
-                    .interned(),
-            )
-        } else {
-            Sun::Uniform(sun_irradiance(turbidity, eta) * (scale / (2.0 * PI * one_minus_cos)))
-        };
-        let to_sampling = Mat3::from_cols(Vec3::X, Vec3::NEG_Z, Vec3::Y);
-        let world_from_light = to_world * to_sampling.transpose();
-        Self {
-            coefficients,
-            sky_radiance: if night {
-                Rgb::ZERO
-            } else {
-                Rgb::from(radiance) * (sky_scale * Y_NORMALIZATION)
-            },
-            disk: SunDisk {
-                direction: sampling_of_sky(sun),
-                cos_radius: half.cos(),
-            },
-            sin_half_aperture: half.sin(),
-            sun: sun_radiance,
-            sun_prob: 0.0,
-            distribution: u32::MAX,
-            light_from_world: world_from_light.inverse(),
-            world_from_light,
+        SkyModel {
+            turbidity,
+            albedo,
+            sky_factor: sky_scale * Y_NORMALIZATION,
+            uniform_sun_factor: scale / (2.0 * PI * one_minus_cos),
+            complex: complex.then(|| {
+                ComplexSun::new(turbidity, scale * one_minus_cos_default / one_minus_cos).interned()
+            }),
         }
+    }
+
+    /// Moves the sun to `sun` (the sky's frame, unit) and makes the sky
+    /// and the sun's radiance those of its elevation.
+    pub fn set_sun(&mut self, model: &SkyModel, sun: Vec3) {
+        self.place(&model.placement(sun));
+    }
+
+    /// Puts the sun where `placement` says, with the sky it makes.
+    #[inline]
+    pub fn place(&mut self, placement: &SunPlacement) {
+        self.coefficients = placement.coefficients;
+        self.sky_radiance = placement.sky_radiance;
+        self.sun = placement.sun;
+        self.disk.direction = placement.direction;
     }
 
     /// The sky along `d` (sampling frame, unit), without the sun.
@@ -594,33 +716,8 @@ const PLACE_TIME: [&str; 9] = [
 /// The sun's direction (the sky's frame) from the place and time
 /// parameters; a date or time that does not exist is refused.
 fn sun_from_place_and_time(p: &mut dyn Params) -> Result<Vec3, ParamError> {
-    let finite = |p: &mut dyn Params, name: &str, default: f32| -> Result<f64, ParamError> {
-        let v = p.float_or(name, default)?;
-        if v.is_finite() {
-            Ok(v as f64)
-        } else {
-            Err(p.param_error(name, &format!("must be a number, not {v}")))
-        }
-    };
-    let latitude = finite(p, "latitude", 35.6894)?;
-    let longitude = finite(p, "longitude", 139.6917)?;
-    let timezone = finite(p, "timezone", 9.0)?;
-    if !(-90.0..=90.0).contains(&latitude) {
-        return Err(p.param_error("latitude", &format!("must be in [-90, 90], not {latitude}")));
-    }
-    let year = p.integer_or("year", 2010)?;
-    let month = p.integer_or("month", 7)?;
-    if !(1..=12).contains(&month) {
-        return Err(p.param_error("month", &format!("there is no month {month}: 1 to 12")));
-    }
-    let day = p.integer_or("day", 10)?;
-    let days = days_in_month(year, month);
-    if !(1..=days).contains(&day) {
-        return Err(p.param_error(
-            "day",
-            &format!("{year}-{month:02} has no day {day}: 1 to {days}"),
-        ));
-    }
+    let place = Place::from_params(p)?;
+    let (year, month, day) = date_param(p, ["year", "month", "day"], (2010, 7, 10))?;
     let mut clock = [0.0; 3];
     for (i, (name, default, limit)) in [
         ("hour", 15.0, 24.0),
@@ -630,7 +727,7 @@ fn sun_from_place_and_time(p: &mut dyn Params) -> Result<Vec3, ParamError> {
     .into_iter()
     .enumerate()
     {
-        let v = finite(p, name, default)?;
+        let v = finite_param(p, name, default)?;
         if !(0.0..limit).contains(&v) {
             return Err(p.param_error(
                 name,
@@ -647,7 +744,78 @@ fn sun_from_place_and_time(p: &mut dyn Params) -> Result<Vec3, ParamError> {
         minute: clock[1],
         second: clock[2],
     };
-    Ok(sun_direction(latitude, longitude, timezone, &when))
+    Ok(place.sun_direction(&when))
+}
+
+/// A float parameter that must be finite.
+pub(crate) fn finite_param(
+    p: &mut dyn Params,
+    name: &str,
+    default: f32,
+) -> Result<f64, ParamError> {
+    let v = p.float_or(name, default)?;
+    if v.is_finite() {
+        Ok(v as f64)
+    } else {
+        Err(p.param_error(name, &format!("must be a number, not {v}")))
+    }
+}
+
+/// A date given by three integer parameters (`names`: year, month, day),
+/// refused where it does not exist.
+pub(crate) fn date_param(
+    p: &mut dyn Params,
+    names: [&str; 3],
+    default: (i64, i64, i64),
+) -> Result<(i64, i64, i64), ParamError> {
+    let year = p.integer_or(names[0], default.0)?;
+    let month = p.integer_or(names[1], default.1)?;
+    if !(1..=12).contains(&month) {
+        return Err(p.param_error(names[1], &format!("there is no month {month}: 1 to 12")));
+    }
+    let day = p.integer_or(names[2], default.2)?;
+    let days = days_in_month(year, month);
+    if !(1..=days).contains(&day) {
+        return Err(p.param_error(
+            names[2],
+            &format!("{year}-{month:02} has no day {day}: 1 to {days}"),
+        ));
+    }
+    Ok((year, month, day))
+}
+
+/// Where the sky is seen from, and its clock.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Place {
+    /// Degrees, north positive.
+    pub latitude: f64,
+    /// Degrees, east positive.
+    pub longitude: f64,
+    /// Hours the local clock is ahead of universal time.
+    pub timezone: f64,
+}
+
+impl Place {
+    /// From `latitude`, `longitude` and `timezone` (Tokyo by default, as
+    /// in Mitsuba).
+    pub(crate) fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+        let latitude = finite_param(p, "latitude", 35.6894)?;
+        let longitude = finite_param(p, "longitude", 139.6917)?;
+        let timezone = finite_param(p, "timezone", 9.0)?;
+        if !(-90.0..=90.0).contains(&latitude) {
+            return Err(p.param_error("latitude", &format!("must be in [-90, 90], not {latitude}")));
+        }
+        Ok(Self {
+            latitude,
+            longitude,
+            timezone,
+        })
+    }
+
+    /// The sun's direction here at local time `when` ([`sun_direction`]).
+    pub fn sun_direction(&self, when: &Moment) -> Vec3 {
+        sun_direction(self.latitude, self.longitude, self.timezone, when)
+    }
 }
 
 fn days_in_month(year: i64, month: i64) -> i64 {
@@ -661,6 +829,7 @@ fn days_in_month(year: i64, month: i64) -> i64 {
 }
 
 /// A local date and time.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Moment {
     /// Year.
     pub year: i64,
@@ -676,19 +845,22 @@ pub struct Moment {
     pub second: f64,
 }
 
+/// Fliegel & Van Flandern's Julian day number of a date (truncating
+/// division; a day past the month's end rolls over into the next).
+pub fn julian_day_number(y: i64, m: i64, d: i64) -> i64 {
+    let a = (m - 14) / 12;
+    (1461 * (y + 4800 + a)) / 4 + (367 * (m - 2 - 12 * a)) / 12 - (3 * ((y + 4900 + a) / 100)) / 4
+        + d
+        - 32075
+}
+
 /// The sun's direction in the sky's frame (+x south, +y west, +z up) at
 /// `latitude`, `longitude` (degrees, east positive) and `timezone` (hours
 /// east), at local time `when`: the PSA algorithm (Blanco-Muriel et al.
 /// 2001) with its parallax correction.
 pub fn sun_direction(latitude: f64, longitude: f64, timezone: f64, when: &Moment) -> Vec3 {
     let ut_hours = (when.hour - timezone) + (when.minute + when.second / 60.0) / 60.0;
-    // Fliegel & Van Flandern's Julian day number (truncating division).
-    let (y, m, d) = (when.year, when.month, when.day);
-    let a = (m - 14) / 12;
-    let jdn = (1461 * (y + 4800 + a)) / 4 + (367 * (m - 2 - 12 * a)) / 12
-        - (3 * ((y + 4900 + a) / 100)) / 4
-        + d
-        - 32075;
+    let jdn = julian_day_number(when.year, when.month, when.day);
     // Mitsuba holds the Julian date in single precision (a quarter day).
     let jd = (jdn as f32 - 0.5 + (ut_hours / 24.0) as f32) as f64;
     let n = jd - 2_451_545.0;

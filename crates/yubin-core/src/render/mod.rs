@@ -519,6 +519,7 @@ impl<'a> Progressive<'a> {
         let crop = self.scene.film.crop_size;
         let active = (!self.active.is_empty()).then_some(self.active.as_slice());
         let scene = RenderScene::new(self.scene, &self.render_state);
+        let timed = scene.samples_times();
         // One job per tile: rayon's default splitting hands each thread
         // runs of tiles it cannot give away once started, which can leave
         // a thread idle at the end of a render while another finishes its
@@ -539,6 +540,7 @@ impl<'a> Progressive<'a> {
                     channels: self.channels,
                     samples: samples.clone(),
                     active,
+                    timed,
                 };
                 let r = job.render(tile);
                 progress(
@@ -780,6 +782,9 @@ struct TileJob<'a> {
     /// Per pixel of the crop window, whether it still samples (adaptive
     /// sampling; all do without).
     active: Option<&'a [bool]>,
+    /// Each camera sample is taken at a time of its own
+    /// ([`RenderScene::samples_times`]).
+    timed: bool,
 }
 
 /// A rendered tile: its buffer, its non-finite samples, and per pixel
@@ -900,6 +905,11 @@ impl TileJob<'_> {
             };
             scene.camera.generate_ray_in(&scene.meshes, film_p, u_lens)
         });
+        let time = if self.timed {
+            scene.shutter.time(stream.next_1d())
+        } else {
+            scene.time()
+        };
         CameraSample {
             x,
             y,
@@ -907,6 +917,7 @@ impl TileJob<'_> {
             offset,
             ray: ray.flatten(),
             stream,
+            time,
         }
     }
 
@@ -926,6 +937,23 @@ impl TileJob<'_> {
         }
     }
 
+    /// Traces each sample of `batch` alone, in the scene at its time.
+    fn trace_at_their_times(&self, batch: &mut Batch, values: &mut [f32]) {
+        let samples = (batch.rays.iter())
+            .zip(batch.streams.iter_mut())
+            .zip(&batch.times)
+            .zip(values.chunks_exact_mut(self.channels));
+        for (((ray, stream), &time), values) in samples {
+            let scene = self.scene.at_time(time);
+            self.integrator.sample_packet(
+                &scene,
+                std::slice::from_ref(ray),
+                std::slice::from_mut(stream),
+                values,
+            );
+        }
+    }
+
     /// Traces the samples waiting in `batch` and splats them in order;
     /// a `pinhole` camera's rays are still to be made.
     fn trace(&self, batch: &mut Batch, out: &mut TileOutput, pinhole: Option<&Perspective>) {
@@ -934,8 +962,12 @@ impl TileJob<'_> {
         }
         let n = batch.rays.len();
         let values = &mut out.values[..n * self.channels];
-        self.integrator
-            .sample_packet(&self.scene, &batch.rays, &mut batch.streams, values);
+        if self.timed {
+            self.trace_at_their_times(batch, values);
+        } else {
+            self.integrator
+                .sample_packet(&self.scene, &batch.rays, &mut batch.streams, values);
+        }
         let weight = self.scene.camera.sample_weight();
         if weight != 1.0 {
             values.iter_mut().for_each(|v| *v *= weight);
@@ -984,6 +1016,9 @@ struct CameraSample {
     offset: Vec2,
     ray: Option<Ray>,
     stream: SampleStream,
+    /// When it is taken (the shutter's opening unless the render
+    /// [`RenderScene::samples_times`]).
+    time: f32,
 }
 
 /// Camera samples traced together: enough that a packet of
@@ -997,6 +1032,8 @@ struct Batch {
     streams: Vec<SampleStream>,
     /// Pixel, sample index and film offset of each.
     spots: Vec<(u32, u32, u32, Vec2)>,
+    /// Time of each.
+    times: Vec<f32>,
 }
 
 impl Batch {
@@ -1005,6 +1042,7 @@ impl Batch {
             rays: Vec::with_capacity(BATCH),
             streams: Vec::with_capacity(BATCH),
             spots: Vec::with_capacity(BATCH),
+            times: Vec::with_capacity(BATCH),
         }
     }
 
@@ -1012,12 +1050,14 @@ impl Batch {
         self.rays.push(s.ray);
         self.streams.push(s.stream);
         self.spots.push((s.x, s.y, s.index, s.offset));
+        self.times.push(s.time);
     }
 
     fn clear(&mut self) {
         self.rays.clear();
         self.streams.clear();
         self.spots.clear();
+        self.times.clear();
     }
 }
 

@@ -163,7 +163,7 @@ impl RenderState {
         emitters: &mut [Emitter],
         compensated: &[bool],
     ) -> Vec<Distribution2D> {
-        crate::light::build_distributions(emitters, &scene.materials, compensated)
+        crate::light::build_distributions(emitters, &scene.materials, compensated, scene.shutter)
     }
 
     /// The light sampler over `emitters` (the render's), in `scene` (its
@@ -200,6 +200,7 @@ impl RenderState {
                 images: &scene.materials.images,
                 materials: &scene.materials,
                 distributions,
+                time: scene.shutter.open,
             },
             radius,
         )
@@ -208,11 +209,13 @@ impl RenderState {
 
 /// The scene as a render's integrator sees it: the [`Scene`] (which it
 /// dereferences to) and the render's [`RenderState`], built from that
-/// scene. Two references, passed by reference.
+/// scene, at the time of one camera sample. Two references and the time,
+/// passed by reference.
 #[derive(Clone, Copy, Debug)]
 pub struct RenderScene<'a> {
     scene: &'a Scene,
     state: &'a RenderState,
+    time: f32,
 }
 
 impl std::ops::Deref for RenderScene<'_> {
@@ -225,8 +228,33 @@ impl std::ops::Deref for RenderScene<'_> {
 
 impl<'a> RenderScene<'a> {
     /// `scene` with `state`, which must have been built from it.
+    /// At the time the shutter opens.
     pub fn new(scene: &'a Scene, state: &'a RenderState) -> Self {
-        Self { scene, state }
+        Self {
+            scene,
+            state,
+            time: scene.shutter.open,
+        }
+    }
+
+    /// The same scene at `time` (what emitters that change with time,
+    /// `timed_sunsky`, show).
+    #[inline]
+    pub fn at_time(self, time: f32) -> Self {
+        Self { time, ..self }
+    }
+
+    /// The time of the camera sample.
+    #[inline]
+    pub fn time(&self) -> f32 {
+        self.time
+    }
+
+    /// Whether camera samples must be taken at times of their own: the
+    /// shutter is open over an interval and some emitter changes with
+    /// time.
+    pub fn samples_times(&self) -> bool {
+        self.scene.shutter.is_open() && self.state.emitters.iter().any(|e| e.changes_with_time())
     }
 
     /// The scene.
@@ -251,6 +279,7 @@ impl<'a> RenderScene<'a> {
             images: &scene.materials.images,
             materials: &scene.materials,
             distributions: &self.state.light_distributions,
+            time: self.time,
         }
     }
 

@@ -10,7 +10,7 @@ use super::traversal::{triangle_of_id, Group, Instance, Item, TriangleRun};
 use super::{Scene, ShapeEmitter, ShapeInfo};
 use crate::accel::{Bvh, PrimCost};
 use crate::bsdf::{Diffuse, Material};
-use crate::camera::{Camera, FovAxis, Perspective};
+use crate::camera::{Camera, FovAxis, Perspective, Shutter};
 use crate::film::Film;
 use crate::light::{Emitter, EmitterOptions};
 use crate::material::Materials;
@@ -106,6 +106,7 @@ pub struct SceneBuilder {
     instances: Vec<Instance>,
     group_emitters: Vec<GroupEmitter>,
     camera: Option<Camera>,
+    shutter: Shutter,
     film: Film,
     sampler: Sampler,
     media: Vec<crate::medium::Medium>,
@@ -152,6 +153,7 @@ impl SceneBuilder {
             instances: Vec::new(),
             group_emitters: Vec::new(),
             camera: None,
+            shutter: Shutter::INSTANT,
             film: Film::default(),
             sampler: Sampler::default(),
             media: Vec::new(),
@@ -550,6 +552,12 @@ impl SceneBuilder {
         self.camera.is_none_or(|c| c.can_connect())
     }
 
+    /// Sets when the camera's samples are taken.
+    pub fn shutter(&mut self, s: Shutter) -> &mut Self {
+        self.shutter = s;
+        self
+    }
+
     /// Sets the film.
     pub fn film(&mut self, f: Film) -> &mut Self {
         self.film = f;
@@ -620,6 +628,7 @@ impl SceneBuilder {
             portals,
             emitter_world,
             camera,
+            shutter: self.shutter,
             film: self.film,
             sampler: self.sampler,
             media: self.media,

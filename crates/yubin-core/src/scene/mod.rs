@@ -174,6 +174,8 @@ pub struct Scene {
     pub(crate) emitter_world: Vec<u32>,
     /// The camera.
     pub camera: Camera,
+    /// When the camera's samples are taken.
+    pub shutter: crate::camera::Shutter,
     /// The film.
     pub film: Film,
     /// The sampler.

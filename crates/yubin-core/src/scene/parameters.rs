@@ -299,6 +299,7 @@ impl Scene {
             EditTarget::Sensor => {
                 let sensor = Sensor::from_params(&mut replay)?;
                 self.camera = sensor.camera;
+                self.shutter = sensor.shutter;
                 self.film = sensor.film;
                 self.sampler = sensor.sampler;
             }
