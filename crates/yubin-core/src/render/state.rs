@@ -464,12 +464,13 @@ mod tests {
         assert_eq!(state.light_sampler().selection, LightSelection::default());
     }
 
-    /// What integrators receive is two references.
+    /// What integrators receive is two references and the time (padded to
+    /// a third word).
     #[test]
-    fn a_render_scene_is_two_pointers() {
+    fn a_render_scene_is_two_pointers_and_a_time() {
         assert_eq!(
             std::mem::size_of::<RenderScene>(),
-            2 * std::mem::size_of::<usize>()
+            3 * std::mem::size_of::<usize>()
         );
     }
 }
