@@ -828,7 +828,7 @@ pub(super) fn build_group(
     }
     let bounds = item_bounds(&groups[gi].items, groups, geometry);
     let items = &groups[gi].items;
-    let mut bvh = Bvh::build_with_costs(&bounds, |i| item_cost(items[i]));
+    let mut bvh = Bvh::build_with_costs(&bounds, |i| item_cost(items[i], geometry.shapes));
     let g = &mut groups[gi];
     let order = bvh
         .take_leaf_order_packed()
@@ -874,10 +874,10 @@ pub(super) fn unbuilt_group(items: Vec<Item>) -> Group {
 
 /// What testing `item` costs for the SAH, relative to a node visit: a
 /// triangle rides in a packet; analytic shapes and instances cost more.
-fn item_cost(item: Item) -> PrimCost {
+fn item_cost(item: Item, shapes: &[Shape]) -> PrimCost {
     match item {
         Item::Triangle { .. } | Item::Empty => PrimCost::Packed,
-        Item::Prim { .. } => PrimCost::Alone(1.0),
+        Item::Prim { shape, .. } => PrimCost::Alone(shapes[shape as usize].intersect_cost()),
         Item::Instance(_) => PrimCost::Alone(4.0),
     }
 }

@@ -23,10 +23,11 @@
 //! its hits satisfy |p − c(v)| = r(v) and (p − c(v))·c′(v) = 0). Its ends
 //! are open. Only where a ray enters counts, as Mitsuba culls back faces.
 //!
-//! **Intersection.** Each segment is split into 8 pieces, each bounded by
+//! **Intersection.** Each segment is split into 4 pieces, each bounded by
 //! the rounded cone between its end circles widened by the piece's
-//! departure from its chord (computed once, as the file loads; a ray first
-//! tests the sphere around each); where the ray enters one, Newton's method on
+//! departure from it (computed once, as the file loads) and each a
+//! primitive of the BVH, boxed by its cone (a ray that reaches one first
+//! tests the sphere around it); where the ray enters one, Newton's method on
 //! (t, v) solves (o + t d − c(v))·c′(v) = 0, |o + t d − c(v)|² = r(v)², and
 //! the nearest converged solution with v in [0, 1] where the ray enters
 //! (d·n < 0) is the hit. The normal is the tube's:
@@ -49,7 +50,7 @@ use crate::params::{ParamError, Params};
 use glam::{Vec2, Vec3, Vec4};
 
 /// Pieces each segment is bounded by.
-const PIECES: usize = 8;
+const PIECES: usize = 4;
 
 /// The segments of a `bsplinecurve`: four control points each.
 #[derive(Clone, Debug, PartialEq)]
@@ -123,7 +124,14 @@ fn tube_normal(q: &[Vec4; 4], v: f32, p: Vec3) -> Vec3 {
 /// Newton's method on (t, v) from (t, v): the ray's crossing of the tube
 /// near there, if it converges (the residuals checked in the end, to the
 /// precision single floats allow at the ray's distance).
-fn refine(q: &[Vec4; 4], o: Vec3, d: Vec3, mut t: f32, mut v: f32) -> Option<(f32, f32)> {
+fn refine(
+    q: &[Vec4; 4],
+    o: Vec3,
+    d: Vec3,
+    mut t: f32,
+    mut v: f32,
+    range: (f32, f32),
+) -> Option<(f32, f32)> {
     for _ in 0..12 {
         let (c, dc, ddc) = evaluate(q, v);
         let rho = o + d * t - c.truncate();
@@ -140,7 +148,10 @@ fn refine(q: &[Vec4; 4], o: Vec3, d: Vec3, mut t: f32, mut v: f32) -> Option<(f3
         let dv = (a11 * g2 - a21 * g1) / det;
         t -= dt;
         v -= dv.clamp(-0.25, 0.25);
-        if dt.abs() <= 1e-7 * t.abs().max(1.0) && dv.abs() <= 1e-6 {
+        if !(range.0..=range.1).contains(&v) {
+            return None;
+        }
+        if dt.abs() <= 1e-6 * t.abs().max(1.0) && dv.abs() <= 1e-5 {
             break;
         }
     }
@@ -162,16 +173,23 @@ fn misses_bounding_sphere(hull: &Segment, o: Vec3, d: Vec3) -> bool {
     (centre - o).cross(d).length_squared() > radius * radius * d.length_squared()
 }
 
-/// The rounded cones bounding segment `q`'s 8 pieces: between the
-/// circles at their ends, widened by the piece's departure from its chord
-/// (at its middle) and 5 % of its radius.
+/// The rounded cones bounding segment `q`'s pieces: between the circles
+/// at their ends, widened by the most the piece departs from that cone
+/// (its centre from the chord plus its radius above the chord's, at 9
+/// points along it) and 5 % of its radius.
 fn piece_hulls(q: &[Vec4; 4]) -> [Segment; PIECES] {
     std::array::from_fn(|k| {
         let (va, vb) = (k as f32 / PIECES as f32, (k + 1) as f32 / PIECES as f32);
         let (start, end) = (evaluate(q, va).0, evaluate(q, vb).0);
-        let middle = evaluate(q, 0.5 * (va + vb)).0;
-        let sag = (middle - (start + end) * 0.5).truncate().length();
-        let grow = sag + 0.05 * start.w.abs().max(end.w.abs());
+        let departure = (1..10)
+            .map(|i| {
+                let s = i as f32 / 10.0;
+                let on_curve = evaluate(q, va + (vb - va) * s).0;
+                let on_chord = start.lerp(end, s);
+                (on_curve - on_chord).truncate().length() + (on_curve.w.abs() - on_chord.w.abs())
+            })
+            .fold(0.0f32, f32::max);
+        let grow = departure + 0.05 * start.w.abs().max(end.w.abs());
         Segment {
             a: start.truncate().extend(start.w.abs() + grow),
             b: end.truncate().extend(end.w.abs() + grow),
@@ -179,8 +197,34 @@ fn piece_hulls(q: &[Vec4; 4]) -> [Segment; PIECES] {
     })
 }
 
+/// Where the ray `o + t d` enters segment `q` from piece `k` of it
+/// (bounded by `hull`), and v there.
+#[inline]
+fn enter_piece(
+    q: &[Vec4; 4],
+    hull: &Segment,
+    k: usize,
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+) -> Option<(f32, f32)> {
+    if misses_bounding_sphere(hull, o, d) {
+        return None;
+    }
+    let (t0, v_local) = enter(hull, o, d)?;
+    let va = k as f32 / PIECES as f32;
+    // A solution beyond the neighbouring pieces is theirs to find.
+    let width = 1.0 / PIECES as f32;
+    let range = (va - width, va + 2.0 * width);
+    let (t, v) = refine(q, o, d, t0, va + v_local * width, range)?;
+    let entering =
+        (0.0..=1.0).contains(&v) && t > t_min && tube_normal(q, v, o + d * t).dot(d) < 0.0;
+    entering.then_some((t, v))
+}
+
 /// Where the ray `o + t d` enters segment `q` (bounded by `hulls`), and v
-/// there.
+/// there: the nearest of its pieces' entries.
+#[cfg(test)]
 fn enter_segment(
     q: &[Vec4; 4],
     hulls: &[Segment; PIECES],
@@ -188,50 +232,35 @@ fn enter_segment(
     d: Vec3,
     t_min: f32,
 ) -> Option<(f32, f32)> {
-    let mut best: Option<(f32, f32)> = None;
-    for (k, hull) in hulls.iter().enumerate() {
-        if misses_bounding_sphere(hull, o, d) {
-            continue;
-        }
-        let Some((t0, v_local)) = enter(hull, o, d) else {
-            continue;
-        };
-        let va = k as f32 / PIECES as f32;
-        let Some((t, v)) = refine(q, o, d, t0, va + v_local / PIECES as f32) else {
-            continue;
-        };
-        if !(0.0..=1.0).contains(&v) || t <= t_min || best.is_some_and(|(b, _)| b <= t) {
-            continue;
-        }
-        if tube_normal(q, v, o + d * t).dot(d) < 0.0 {
-            best = Some((t, v));
-        }
-    }
-    best
+    (hulls.iter().enumerate())
+        .filter_map(|(k, hull)| enter_piece(q, hull, k, o, d, t_min))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
 }
 
 impl ShapeModel for BSplineCurve {
+    // Each piece of each segment is a primitive of its own, bounded by its
+    // rounded cone: the BVH then leaves out the pieces a ray passes by.
     fn prim_count(&self, _: &[TriangleMesh]) -> u32 {
-        self.data.segments.len() as u32
+        (self.data.segments.len() * PIECES) as u32
     }
 
     fn prim_bounds(&self, _: &[TriangleMesh], prim: u32) -> Bounds3 {
-        // The curve stays in its control points' hull; its radius at most
-        // the largest.
-        let q = &self.data.segments[prim as usize];
-        let r = q.iter().map(|p| p.w.abs()).fold(0.0, f32::max);
-        q.iter().fold(Bounds3::EMPTY, |b, p| {
-            b.union_point(p.truncate() - Vec3::splat(r))
-                .union_point(p.truncate() + Vec3::splat(r))
+        let (i, k) = (prim as usize / PIECES, prim as usize % PIECES);
+        let hull = &self.data.hulls[i][k];
+        [hull.a, hull.b].iter().fold(Bounds3::EMPTY, |b, p| {
+            let r = Vec3::splat(p.w.abs());
+            b.union_point(p.truncate() - r)
+                .union_point(p.truncate() + r)
         })
     }
 
     #[inline]
     fn intersect(&self, _: &[TriangleMesh], prim: u32, ray: &Ray) -> Option<PrimHit> {
-        let i = prim as usize;
-        let (t, v) = enter_segment(
+        let (i, k) = (prim as usize / PIECES, prim as usize % PIECES);
+        let (t, v) = enter_piece(
             &self.data.segments[i],
-            &self.data.hulls[i],
+            &self.data.hulls[i][k],
+            k,
             ray.o,
             ray.d,
             ray.t_min,
@@ -249,7 +278,8 @@ impl ShapeModel for BSplineCurve {
         ray: &Ray,
         hit: PrimHit,
     ) -> SurfaceInteraction {
-        let q = &self.data.segments[prim as usize];
+        let segment = prim as usize / PIECES;
+        let q = &self.data.segments[segment];
         let v = hit.uv.x;
         let p = ray.at(hit.t);
         let (c, dc, _) = evaluate(q, v);
@@ -257,7 +287,7 @@ impl ShapeModel for BSplineCurve {
         let tangent = dc.truncate().normalize_or_zero();
         let rho = (p - c.truncate()).normalize_or_zero();
         let segments = self.data.segments.len() as f32;
-        let uv = Vec2::new(turn_around(tangent, rho), (prim as f32 + v) / segments);
+        let uv = Vec2::new(turn_around(tangent, rho), (segment as f32 + v) / segments);
         let dpdu = tangent.cross(rho) * (std::f32::consts::TAU * c.w);
         let dpdv = dc.truncate() * segments;
         let frame = Frame::from_normal_and_tangent(n, dpdu);
