@@ -341,20 +341,27 @@ fn sampling_of_sky(d: Vec3) -> Vec3 {
 
 /// The parameters `sunsky` and `timed_sunsky` share: the atmosphere, the
 /// sun's size and the scales, and the sky's frame.
-pub(crate) struct SkyParams {
-    turbidity: f32,
-    albedo: Rgb,
-    sun_scale: f32,
-    sky_scale: f32,
-    aperture_deg: f32,
-    complex: bool,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkyParams {
+    /// Atmospheric turbidity, 1 to 10.
+    pub turbidity: f32,
+    /// The ground's albedo, per channel 0 to 1.
+    pub albedo: Rgb,
+    /// Factor on the sun.
+    pub sun_scale: f32,
+    /// Factor on the sky.
+    pub sky_scale: f32,
+    /// The sun's full angular diameter, degrees.
+    pub aperture_deg: f32,
+    /// The limb-darkened sun rather than a uniform disk.
+    pub complex: bool,
     /// The sky's frame to world (invertible).
-    pub(crate) to_world: DMat3,
+    pub to_world: DMat3,
 }
 
 impl SkyParams {
     /// Reads and checks them.
-    pub(crate) fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
+    pub fn from_params(p: &mut dyn Params) -> Result<Self, ParamError> {
         let turbidity = p.float_or("turbidity", 3.0)?;
         if !(1.0..=10.0).contains(&turbidity) {
             return Err(p.param_error(
@@ -394,29 +401,48 @@ impl SkyParams {
     }
 
     /// What placing the sun again needs of them.
-    pub(crate) fn model(&self) -> SkyModel {
-        SunskyLight::model(
-            self.turbidity,
-            self.albedo,
-            self.sun_scale,
-            self.sky_scale,
-            self.aperture_deg,
-            self.complex,
-        )
+    pub fn model(&self) -> SkyModel {
+        let half = (0.5 * self.aperture_deg).to_radians();
+        // 1 − cos h in single precision, as Mitsuba computes it.
+        let one_minus_cos = 1.0 - half.cos();
+        let one_minus_cos_default = 1.0 - DEFAULT_HALF_APERTURE_DEG.to_radians().cos();
+        let scale = self.sun_scale * SUN_SPECTRUM_TO_RGB * Y_NORMALIZATION;
+        SkyModel {
+            turbidity: self.turbidity,
+            albedo: self.albedo,
+            sky_factor: self.sky_scale * Y_NORMALIZATION,
+            uniform_sun_factor: scale / (2.0 * PI * one_minus_cos),
+            complex: self.complex.then(|| {
+                ComplexSun::new(
+                    self.turbidity,
+                    scale * one_minus_cos_default / one_minus_cos,
+                )
+                .interned()
+            }),
+        }
     }
 
     /// The sky with the sun towards `sun` (the sky's frame, unit).
-    pub(crate) fn light(&self, sun: Vec3) -> SunskyLight {
-        SunskyLight::new(
-            self.turbidity,
-            self.albedo,
-            sun,
-            self.sun_scale,
-            self.sky_scale,
-            self.aperture_deg,
-            self.complex,
-            self.to_world.as_mat3(),
-        )
+    pub fn light(&self, sun: Vec3) -> SunskyLight {
+        let half = (0.5 * self.aperture_deg).to_radians();
+        let to_sampling = Mat3::from_cols(Vec3::X, Vec3::NEG_Z, Vec3::Y);
+        let world_from_light = self.to_world.as_mat3() * to_sampling.transpose();
+        let mut light = SunskyLight {
+            coefficients: [[0.0; 9]; 3],
+            sky_radiance: Rgb::ZERO,
+            disk: SunDisk {
+                direction: Vec3::Y,
+                cos_radius: half.cos(),
+            },
+            sin_half_aperture: half.sin(),
+            sun: Sun::Uniform(Rgb::ZERO),
+            sun_prob: 0.0,
+            distribution: u32::MAX,
+            light_from_world: world_from_light.inverse(),
+            world_from_light,
+        };
+        light.set_sun(&self.model(), sun);
+        light
     }
 }
 
@@ -493,72 +519,6 @@ impl SunskyLight {
             );
         }
         Ok(sky.light(sun))
-    }
-
-    /// The sky with the sun towards `sun` (the sky's frame, unit).
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        turbidity: f32,
-        albedo: Rgb,
-        sun: Vec3,
-        sun_scale: f32,
-        sky_scale: f32,
-        aperture_deg: f32,
-        complex: bool,
-        to_world: Mat3,
-    ) -> Self {
-        let model = Self::model(
-            turbidity,
-            albedo,
-            sun_scale,
-            sky_scale,
-            aperture_deg,
-            complex,
-        );
-        let half = (0.5 * aperture_deg).to_radians();
-        let to_sampling = Mat3::from_cols(Vec3::X, Vec3::NEG_Z, Vec3::Y);
-        let world_from_light = to_world * to_sampling.transpose();
-        let mut light = Self {
-            coefficients: [[0.0; 9]; 3],
-            sky_radiance: Rgb::ZERO,
-            disk: SunDisk {
-                direction: Vec3::Y,
-                cos_radius: half.cos(),
-            },
-            sin_half_aperture: half.sin(),
-            sun: Sun::Uniform(Rgb::ZERO),
-            sun_prob: 0.0,
-            distribution: u32::MAX,
-            light_from_world: world_from_light.inverse(),
-            world_from_light,
-        };
-        light.set_sun(&model, sun);
-        light
-    }
-
-    /// What [`SunskyLight::set_sun`] needs of the sky's parameters.
-    pub fn model(
-        turbidity: f32,
-        albedo: Rgb,
-        sun_scale: f32,
-        sky_scale: f32,
-        aperture_deg: f32,
-        complex: bool,
-    ) -> SkyModel {
-        let half = (0.5 * aperture_deg).to_radians();
-        // 1 − cos h in single precision, as Mitsuba computes it.
-        let one_minus_cos = 1.0 - half.cos();
-        let one_minus_cos_default = 1.0 - DEFAULT_HALF_APERTURE_DEG.to_radians().cos();
-        let scale = sun_scale * SUN_SPECTRUM_TO_RGB * Y_NORMALIZATION;
-        SkyModel {
-            turbidity,
-            albedo,
-            sky_factor: sky_scale * Y_NORMALIZATION,
-            uniform_sun_factor: scale / (2.0 * PI * one_minus_cos),
-            complex: complex.then(|| {
-                ComplexSun::new(turbidity, scale * one_minus_cos_default / one_minus_cos).interned()
-            }),
-        }
     }
 
     /// Moves the sun to `sun` (the sky's frame, unit) and makes the sky
@@ -918,46 +878,29 @@ pub(crate) mod tests {
             let (el, az) = (el.to_radians(), az.to_radians());
             Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin())
         };
-        let y_up = Mat3::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+        let y_up = DMat3::from_rotation_x(-std::f64::consts::FRAC_PI_2);
+        let sky = |turbidity, albedo, sun_scale, aperture_deg, complex, to_world| SkyParams {
+            turbidity,
+            albedo,
+            sun_scale,
+            sky_scale: 1.0,
+            aperture_deg,
+            complex,
+            to_world,
+        };
         [
             (
                 "sunsky sky",
-                SunskyLight::new(
-                    3.0,
-                    Rgb::splat(0.3),
-                    sun(40.0, 30.0),
-                    0.0,
-                    1.0,
-                    0.5358,
-                    false,
-                    Mat3::IDENTITY,
-                ),
+                sky(3.0, Rgb::splat(0.3), 0.0, 0.5358, false, DMat3::IDENTITY)
+                    .light(sun(40.0, 30.0)),
             ),
             (
                 "sunsky low sun 6°",
-                SunskyLight::new(
-                    6.0,
-                    Rgb::new(0.1, 0.5, 0.9),
-                    sun(12.0, 200.0),
-                    1.0,
-                    1.0,
-                    6.0,
-                    false,
-                    y_up,
-                ),
+                sky(6.0, Rgb::new(0.1, 0.5, 0.9), 1.0, 6.0, false, y_up).light(sun(12.0, 200.0)),
             ),
             (
                 "sunsky complex sun 8°",
-                SunskyLight::new(
-                    2.0,
-                    Rgb::splat(0.2),
-                    sun(60.0, -70.0),
-                    0.2,
-                    1.0,
-                    8.0,
-                    true,
-                    y_up,
-                ),
+                sky(2.0, Rgb::splat(0.2), 0.2, 8.0, true, y_up).light(sun(60.0, -70.0)),
             ),
         ]
         .into_iter()
