@@ -121,7 +121,8 @@ impl Timing {
     /// The local date and time that `time` maps to.
     pub fn moment(&self, time: f32) -> Moment {
         let u = (time as f64 - self.shutter.0) / (self.shutter.1 - self.shutter.0);
-        let x = u * (self.days as f64 - f64::from(f32::EPSILON) / 2.0);
+        // Mitsuba's N − 2⁻²³ (f32::EPSILON): the closing time is still in the last day.
+        let x = u * (self.days as f64 - f64::from(f32::EPSILON));
         let day = x.floor().clamp(-MAX_DAY_OFFSET, MAX_DAY_OFFSET);
         let (first, last) = self.window;
         let (year, month, first_day) = self.start;
